@@ -1,0 +1,192 @@
+//! Quaternion complementary filter of Valenti, Dryanovski and Xiao (2015), accelerometer
+//! part, in this crate's conventions: gyro prediction, then a delta quaternion (in NED) that
+//! rotates the predicted image of the measured "down" onto NED down, interpolated toward the
+//! identity by the gain (LERP below 20°, SLERP above), applied by multiplication, normalised.
+//! The delta quaternion has no NED-z component, so the correction never changes heading
+//! directly.
+
+use crate::{
+    filter::AttitudeFilter,
+    gate::{AccelGate, PreCheck},
+    init::{self, InitStep, Initializer},
+    mathf,
+    settings::Settings,
+    validate, Flags, ImuSample, Quaternion, Vec3,
+};
+
+/// Complementary-filter parameters.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ComplementaryParams {
+    /// Interpolation gain per sample at `gain_rate_hz`, dimensionless in [0, 1]; scaled with
+    /// the actual `dt`. Default 0.0001, the best gain the source found.
+    pub gain: f32,
+    /// Sample rate at which `gain` is defined, Hz. Default 50.
+    pub gain_rate_hz: f32,
+    /// Corrections smaller than this angle use LERP, larger ones SLERP, rad. Default 20°.
+    pub lerp_below: f32,
+}
+
+impl Default for ComplementaryParams {
+    fn default() -> Self {
+        ComplementaryParams { gain: 1e-4, gain_rate_hz: 50.0, lerp_below: mathf::deg(20.0) }
+    }
+}
+
+/// The quaternion complementary filter (gyro bias from the initialisation window, fixed).
+#[derive(Clone, Debug)]
+pub struct Complementary {
+    settings: Settings,
+    params: ComplementaryParams,
+    q: Quaternion,
+    bias: Vec3,
+    init: Option<Initializer>,
+    gate: AccelGate,
+}
+
+impl Complementary {
+    /// A new filter, starting its initialisation window.
+    pub fn new(settings: Settings, params: ComplementaryParams) -> Self {
+        Complementary {
+            settings,
+            params,
+            q: Quaternion::from_yaw(settings.init.initial_yaw),
+            bias: settings.init.gyro_bias,
+            init: Some(Initializer::new(settings.init)),
+            gate: AccelGate::new(settings.gate),
+        }
+    }
+
+    /// The parameters in use.
+    pub fn params(&self) -> &ComplementaryParams {
+        &self.params
+    }
+
+    /// The correction quaternion (NED frame) that rotates `g` (a unit vector in NED, the
+    /// predicted image of the measured down direction) onto NED down `(0, 0, 1)`.
+    pub fn delta_to_down(g: Vec3) -> Quaternion {
+        let s = 1.0 + g.z;
+        if !(s > 1e-6) {
+            // Upside down: any horizontal axis; rotate about north by π.
+            return Quaternion::new(0.0, 1.0, 0.0, 0.0);
+        }
+        let c = mathf::sqrt(0.5 * s);
+        let k = 1.0 / mathf::sqrt(2.0 * s);
+        Quaternion::new(c, g.y * k, -g.x * k, 0.0)
+    }
+
+    fn correct(&mut self, a_g: Vec3, norm_g: f32, dt: f32) {
+        let d_body = a_g * (-1.0 / norm_g);
+        let g = self.q.rotate(d_body);
+        let dq = Self::delta_to_down(g);
+        let alpha = (self.params.gain * dt * self.params.gain_rate_hz).clamp(0.0, 1.0);
+        // Angle of dq is 2·acos(w): LERP below the threshold, else SLERP.
+        let cos_half_thr = mathf::cos(0.5 * self.params.lerp_below);
+        let step = if dq.w > cos_half_thr {
+            Quaternion::IDENTITY.nlerp(dq, alpha)
+        } else {
+            Quaternion::IDENTITY.slerp(dq, alpha)
+        };
+        self.q = (step * self.q).normalized();
+    }
+}
+
+impl AttitudeFilter for Complementary {
+    fn name(&self) -> &'static str {
+        "cf"
+    }
+
+    fn update(&mut self, sample: &ImuSample) -> Flags {
+        let Some(c) = validate::check(sample, &self.settings.limits) else {
+            return Flags::TIME_GAP;
+        };
+        let mut flags = c.flags;
+        if let Some(init) = self.init.as_mut() {
+            return match init::feed(init, &mut self.gate, &c) {
+                InitStep::Pending(q) => {
+                    self.q = q;
+                    flags | Flags::INITIALISING
+                }
+                InitStep::Done(q, b) => {
+                    self.set_attitude(q, b);
+                    flags
+                }
+            };
+        }
+        if let Some(g) = c.gyro {
+            let w = g - self.bias;
+            self.q = (self.q * Quaternion::from_rotation_vector(w * c.dt_rate)).normalized();
+        }
+        if let Some((a, n)) = c.accel_g {
+            match self.gate.pre_check(c.dt_rate, a, n) {
+                PreCheck::Reject(f) => flags |= f,
+                PreCheck::Pass { .. } => {
+                    self.gate.accepted();
+                    self.correct(a, n, c.dt_rate);
+                    flags |= Flags::ACCEL_USED;
+                }
+            }
+        }
+        flags
+    }
+
+    fn attitude(&self) -> Quaternion {
+        self.q
+    }
+
+    fn gyro_bias(&self) -> Vec3 {
+        self.bias
+    }
+
+    fn is_initialised(&self) -> bool {
+        self.init.is_none()
+    }
+
+    fn set_yaw(&mut self, yaw: f32) {
+        if !yaw.is_finite() {
+            return;
+        }
+        match self.init.as_mut() {
+            Some(init) => init.set_yaw(yaw),
+            None => self.q = self.q.with_yaw(yaw),
+        }
+    }
+
+    fn set_attitude(&mut self, q: Quaternion, bias: Vec3) {
+        self.q = q.normalized();
+        self.bias = if bias.is_finite() { bias } else { self.settings.init.gyro_bias };
+        self.init = None;
+        self.gate.reset();
+    }
+
+    fn reset(&mut self) {
+        *self = Complementary::new(self.settings, self.params);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{mathf::deg, Euler};
+
+    #[test]
+    fn delta_rotates_the_predicted_down_onto_ned_down() {
+        for g in [Vec3::new(0.3, -0.2, 0.9), Vec3::new(-0.7, 0.1, 0.2), Vec3::new(0.0, 0.0, 1.0)] {
+            let g = g * (1.0 / g.norm());
+            let d = Complementary::delta_to_down(g);
+            assert!((d.rotate(g) - Vec3::new(0.0, 0.0, 1.0)).max_abs() < 1e-6, "{g:?}");
+            assert_eq!(d.z, 0.0);
+        }
+    }
+
+    #[test]
+    fn gain_one_snaps_tilt_and_keeps_heading_direction() {
+        let p = ComplementaryParams { gain: 1.0, ..Default::default() };
+        let mut f = Complementary::new(Settings::default(), p);
+        // Start 30° off in roll and pitch; the board is truly level with yaw 40°.
+        f.set_attitude(Euler::new(deg(30.0), deg(-30.0), deg(40.0)).to_quaternion(), Vec3::ZERO);
+        f.update(&ImuSample::new(0.02, Vec3::ZERO, Vec3::new(0.0, 0.0, -9.81)));
+        let e = f.euler();
+        assert!(e.roll.abs() < 1e-5 && e.pitch.abs() < 1e-5, "{e:?}");
+    }
+}

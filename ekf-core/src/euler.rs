@@ -1,0 +1,121 @@
+//! Intrinsic Z-Y-X Euler angles (yaw ψ about NED z, then pitch θ about the new y, then roll φ
+//! about the new x) and their conversion to and from attitude quaternions, with the digest's
+//! formulas.
+
+use crate::{mathf, Quaternion};
+
+/// Z-Y-X Euler angles, rad. Roll φ ∈ (−π, π] (positive: starboard down), pitch θ ∈ [−π/2, π/2]
+/// (positive: bow up), yaw ψ ∈ (−π, π] (positive: clockwise seen from above, from north/initial
+/// reference toward east).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Euler {
+    /// Roll φ, rad.
+    pub roll: f32,
+    /// Pitch θ, rad.
+    pub pitch: f32,
+    /// Yaw ψ, rad.
+    pub yaw: f32,
+}
+
+impl Euler {
+    /// From roll, pitch and yaw in rad.
+    pub const fn new(roll: f32, pitch: f32, yaw: f32) -> Self {
+        Euler { roll, pitch, yaw }
+    }
+
+    /// Euler angles of an attitude quaternion (digest formulas, pitch through `atan2`), finite for
+    /// any finite quaternion, including at ±90° pitch.
+    pub fn from_quaternion(q: Quaternion) -> Self {
+        let Quaternion { w, x, y, z } = q;
+        Euler {
+            roll: mathf::atan2(2.0 * (y * z + w * x), 1.0 - 2.0 * (x * x + y * y)),
+            // asin(2(wy − xz)) written as atan2 with cos θ = |first column of R projected on
+            // the horizontal|: identical in exact arithmetic, well conditioned near ±90°.
+            pitch: mathf::atan2(2.0 * (w * y - x * z), {
+                let r00 = 1.0 - 2.0 * (y * y + z * z);
+                let r10 = 2.0 * (x * y + w * z);
+                mathf::sqrt(r00 * r00 + r10 * r10)
+            }),
+            yaw: mathf::atan2(2.0 * (x * y + w * z), 1.0 - 2.0 * (y * y + z * z)),
+        }
+    }
+
+    /// The attitude quaternion of these angles (digest formulas), scalar part ≥ 0.
+    pub fn to_quaternion(self) -> Quaternion {
+        let (sr, cr) = (mathf::sin(0.5 * self.roll), mathf::cos(0.5 * self.roll));
+        let (sp, cp) = (mathf::sin(0.5 * self.pitch), mathf::cos(0.5 * self.pitch));
+        let (sy, cy) = (mathf::sin(0.5 * self.yaw), mathf::cos(0.5 * self.yaw));
+        Quaternion::new(
+            cr * cp * cy + sr * sp * sy,
+            sr * cp * cy - cr * sp * sy,
+            cr * sp * cy + sr * cp * sy,
+            cr * cp * sy - sr * sp * cy,
+        )
+        .normalized()
+    }
+
+    /// Yaw of an attitude quaternion alone, rad (cheaper than the full conversion).
+    pub fn yaw_of(q: Quaternion) -> f32 {
+        mathf::atan2(2.0 * (q.x * q.y + q.w * q.z), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+    }
+
+    /// The angles in degrees `(roll, pitch, yaw)`.
+    pub fn to_degrees(self) -> [f32; 3] {
+        [mathf::to_deg(self.roll), mathf::to_deg(self.pitch), mathf::to_deg(self.yaw)]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Vec3;
+    use mathf::deg;
+
+    #[test]
+    fn known_values() {
+        // 90° yaw: body x points east.
+        let q = Euler::new(0.0, 0.0, deg(90.0)).to_quaternion();
+        let x = q.rotate(Vec3::new(1.0, 0.0, 0.0));
+        assert!((x - Vec3::new(0.0, 1.0, 0.0)).max_abs() < 1e-6);
+        // 30° pitch (bow up): body x points north and up (negative z in NED).
+        let q = Euler::new(0.0, deg(30.0), 0.0).to_quaternion();
+        let x = q.rotate(Vec3::new(1.0, 0.0, 0.0));
+        assert!((x - Vec3::new(deg(30.0).cos(), 0.0, -0.5)).max_abs() < 1e-6);
+        // 20° roll (starboard down): body y points east and down.
+        let q = Euler::new(deg(20.0), 0.0, 0.0).to_quaternion();
+        let y = q.rotate(Vec3::new(0.0, 1.0, 0.0));
+        assert!((y - Vec3::new(0.0, deg(20.0).cos(), deg(20.0).sin())).max_abs() < 1e-6);
+    }
+
+    #[test]
+    fn round_trip_over_the_sphere_including_near_gimbal_lock() {
+        let pitches = [-89.999, -89.9, -89.0, -60.0, -10.0, 0.0, 10.0, 45.0, 89.0, 89.9, 89.999];
+        for &p in &pitches {
+            for r in (-175..=180).step_by(35) {
+                for y in (-170..=180).step_by(50) {
+                    let e = Euler::new(deg(r as f32), deg(p), deg(y as f32));
+                    let q = e.to_quaternion();
+                    let back = Euler::from_quaternion(q).to_quaternion();
+                    // The rotation must come back even where roll and yaw are not separable.
+                    // f32 limit: at 89.999° pitch cos θ ≈ 1.7e−5, so rounding of ~1e−7 in R
+                    // moves roll and yaw by ~1e−2 rad in opposite senses.
+                    let tol = if p.abs() > 89.99 { 2e-2 } else { 2e-4 };
+                    assert!(q.angle_to(back) < tol, "r {r} p {p} y {y}: {}", q.angle_to(back));
+                    if p.abs() < 89.5 {
+                        let b = Euler::from_quaternion(q);
+                        assert!((b.pitch - e.pitch).abs() < 1e-4);
+                        assert!(mathf::wrap_pi(b.roll - e.roll).abs() < 5e-4);
+                        assert!(mathf::wrap_pi(b.yaw - e.yaw).abs() < 5e-4);
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn yaw_of_matches_full_conversion() {
+        let q = Euler::new(deg(12.0), deg(-33.0), deg(140.0)).to_quaternion();
+        assert!((Euler::yaw_of(q) - deg(140.0)).abs() < 1e-5);
+    }
+}

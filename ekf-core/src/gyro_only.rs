@@ -1,0 +1,121 @@
+//! Gyro integration only: the source's "no filter" baseline. It diverges with any residual
+//! bias; it is here to show what every correction buys.
+
+use crate::{
+    filter::AttitudeFilter,
+    gate::AccelGate,
+    init::{self, InitStep, Initializer},
+    settings::Settings,
+    validate, Flags, ImuSample, Quaternion, Vec3,
+};
+
+/// Integrates `gyro − bias` (bias from the initialisation window) and nothing else.
+#[derive(Clone, Debug)]
+pub struct GyroOnly {
+    settings: Settings,
+    q: Quaternion,
+    bias: Vec3,
+    init: Option<Initializer>,
+    gate: AccelGate,
+}
+
+impl GyroOnly {
+    /// A new integrator, starting its initialisation window.
+    pub fn new(settings: Settings) -> Self {
+        GyroOnly {
+            settings,
+            q: Quaternion::from_yaw(settings.init.initial_yaw),
+            bias: settings.init.gyro_bias,
+            init: Some(Initializer::new(settings.init)),
+            gate: AccelGate::new(settings.gate),
+        }
+    }
+}
+
+impl AttitudeFilter for GyroOnly {
+    fn name(&self) -> &'static str {
+        "gyro"
+    }
+
+    fn update(&mut self, sample: &ImuSample) -> Flags {
+        let Some(c) = validate::check(sample, &self.settings.limits) else {
+            return Flags::TIME_GAP;
+        };
+        if let Some(init) = self.init.as_mut() {
+            return match init::feed(init, &mut self.gate, &c) {
+                InitStep::Pending(q) => {
+                    self.q = q;
+                    c.flags | Flags::INITIALISING
+                }
+                InitStep::Done(q, b) => {
+                    self.set_attitude(q, b);
+                    c.flags
+                }
+            };
+        }
+        if let Some(g) = c.gyro {
+            let w = g - self.bias;
+            self.q = (self.q * Quaternion::from_rotation_vector(w * c.dt_rate)).normalized();
+        }
+        c.flags
+    }
+
+    fn attitude(&self) -> Quaternion {
+        self.q
+    }
+
+    fn gyro_bias(&self) -> Vec3 {
+        self.bias
+    }
+
+    fn is_initialised(&self) -> bool {
+        self.init.is_none()
+    }
+
+    fn set_yaw(&mut self, yaw: f32) {
+        if !yaw.is_finite() {
+            return;
+        }
+        match self.init.as_mut() {
+            Some(init) => init.set_yaw(yaw),
+            None => self.q = self.q.with_yaw(yaw),
+        }
+    }
+
+    fn set_attitude(&mut self, q: Quaternion, bias: Vec3) {
+        self.q = q.normalized();
+        self.bias = if bias.is_finite() { bias } else { self.settings.init.gyro_bias };
+        self.init = None;
+    }
+
+    fn reset(&mut self) {
+        *self = GyroOnly::new(self.settings);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{mathf::deg, Euler};
+
+    #[test]
+    fn integrates_a_constant_rate_exactly_and_drifts_with_bias() {
+        let mut f = GyroOnly::new(Settings::default());
+        f.set_attitude(Quaternion::IDENTITY, Vec3::ZERO);
+        let w = Vec3::new(0.1, -0.2, 0.3);
+        for _ in 0..500 {
+            f.update(&ImuSample::new(0.02, w, Vec3::new(0.0, 0.0, -9.81)));
+        }
+        let exact = Quaternion::from_rotation_vector(w * 10.0);
+        assert!(f.attitude().angle_to(exact) < 1e-4, "{}", f.attitude().angle_to(exact));
+        // A residual bias of 0.01 rad/s on z drifts yaw by 0.1 rad in 10 s.
+        let mut f = GyroOnly::new(Settings::default());
+        f.set_attitude(Quaternion::IDENTITY, Vec3::ZERO);
+        for _ in 0..500 {
+            f.update(&ImuSample::new(0.02, Vec3::new(0.0, 0.0, 0.01), Vec3::ZERO));
+        }
+        assert!((f.euler().yaw - 0.1).abs() < 1e-5);
+        f.set_yaw(deg(-45.0));
+        assert!((Euler::yaw_of(f.attitude()) - deg(-45.0)).abs() < 1e-6);
+    }
+}

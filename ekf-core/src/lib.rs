@@ -1,0 +1,58 @@
+//! `ekf-core`: attitude estimation for the iNEMO V2 sensor pod of a slow, tethered ROV.
+//!
+//! `#![no_std]`, allocation-free, `f32` throughout. Conventions (shared by every tool of the
+//! project, see `docs/conventions.md`):
+//! - body frame **FRD** (x forward, y starboard, z down), reference frame **NED**;
+//! - attitude: scalar-first Hamilton quaternion rotating body vectors into NED,
+//!   `v_ned = q ⊗ v_frd ⊗ q*`;
+//! - Euler angles: intrinsic Z-Y-X (yaw ψ, pitch θ, roll φ), radians in code;
+//! - gyroscope in rad/s, accelerometer specific force in m/s² (a level, still board reads
+//!   about `(0, 0, −9.81)`), magnetometer in µT, time in s.
+//!
+//! The main estimator is [`Ekf`]; [`Ukf`], [`SsUkf`], [`Complementary`] and [`GyroOnly`] are the
+//! filters it was chosen against. All implement [`AttitudeFilter`] and take the same
+//! [`ImuSample`]s. Sensor conditioning (axis map, calibration, lever arm) lives in
+//! [`conditioning`] and runs before any filter.
+#![no_std]
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
+pub mod accel_calibration;
+pub mod axis_map;
+pub mod complementary;
+pub mod conditioning;
+pub mod covariance;
+pub mod ekf;
+pub mod euler;
+pub mod filter;
+pub mod flags;
+pub mod gate;
+pub mod gyro_only;
+pub mod init;
+pub mod lever_arm;
+pub mod mathf;
+pub mod quaternion;
+pub mod rest;
+pub mod sample;
+pub mod settings;
+pub mod validate;
+// TEMP pub mod ssukf;
+// TEMP pub mod ukf;
+// TEMP mod unscented;
+pub mod vec3;
+
+pub use complementary::Complementary;
+pub use ekf::Ekf;
+pub use euler::Euler;
+pub use filter::AttitudeFilter;
+pub use flags::Flags;
+pub use gyro_only::GyroOnly;
+pub use quaternion::Quaternion;
+pub use sample::ImuSample;
+pub use settings::Settings;
+// TEMP pub use ssukf::SsUkf;
+// TEMP pub use ukf::Ukf;
+pub use vec3::Vec3;
+
+/// Standard gravity, m/s². The accelerometer gate and the calibration model work in units of it.
+pub const GRAVITY: f32 = 9.806_65;

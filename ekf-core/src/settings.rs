@@ -1,0 +1,274 @@
+//! Settings of the estimators. Every `Default` is the iNEMO V2 / Seahog value from the source
+//! (thesis digest) where the source gives one, otherwise the tuned value documented in
+//! `docs/settings.md`. Angles in rad, rates in rad/s, time in s, accelerations in g where the
+//! name says so.
+
+use crate::{mathf::deg, Vec3};
+
+/// (°/s)² → (rad/s)².
+const DEG2: f32 = (core::f32::consts::PI / 180.0) * (core::f32::consts::PI / 180.0);
+
+/// Sensor noise model (facts about the sensors, shared by every filter).
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct NoiseSettings {
+    /// Gyro white-noise variance of one sample at `gyro_ref_rate_hz`, per body axis,
+    /// (rad/s)². Default: the board's measured 0.337, 0.275, 4.19e−3 (°/s)² at 50 Hz.
+    /// The noise density is taken as constant, so at another sample rate the per-sample
+    /// variance scales with the rate.
+    pub gyro_var: Vec3,
+    /// Sample rate at which `gyro_var` was measured, Hz. Default 50.
+    pub gyro_ref_rate_hz: f32,
+    /// Accelerometer white-noise variance per axis and sample, g². Default 2.376e−6
+    /// (LSM303DLH datasheet, as in the source).
+    pub accel_var: f32,
+}
+
+impl Default for NoiseSettings {
+    fn default() -> Self {
+        NoiseSettings {
+            gyro_var: Vec3::new(0.337 * DEG2, 0.275 * DEG2, 4.19e-3 * DEG2),
+            gyro_ref_rate_hz: 50.0,
+            accel_var: 2.376e-6,
+        }
+    }
+}
+
+impl NoiseSettings {
+    /// Gyro noise power spectral density per axis, (rad/s)²/Hz = rad²/s.
+    pub fn gyro_psd(&self) -> Vec3 {
+        self.gyro_var * (1.0 / self.gyro_ref_rate_hz.max(1e-3))
+    }
+}
+
+/// Start-up: the initialisation window.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct InitSettings {
+    /// Length of the initialisation window, s: tilt is taken from the accelerometer averaged
+    /// over it (and the gyro bias from the averaged gyro). Default 10 s, as on the board.
+    /// Zero starts on the first valid sample.
+    pub window_s: f32,
+    /// Initial yaw, rad (e.g. from a gyrocompass), rotation about NED z. Default 0.
+    pub initial_yaw: f32,
+    /// Take the initial gyro bias from the gyro averaged over the window (the vehicle must be
+    /// still). Default true. When false, or when the window had no usable sample, `gyro_bias`
+    /// is used.
+    pub estimate_gyro_bias: bool,
+    /// Gyro bias used when it is not estimated, rad/s, body FRD. Default: the board's mean
+    /// bias (1.619, 3.440, −0.004) °/s.
+    pub gyro_bias: Vec3,
+}
+
+impl Default for InitSettings {
+    fn default() -> Self {
+        InitSettings {
+            window_s: 10.0,
+            initial_yaw: 0.0,
+            estimate_gyro_bias: true,
+            gyro_bias: Vec3::new(deg(1.619), deg(3.440), deg(-0.0042)),
+        }
+    }
+}
+
+/// Accelerometer gating: which samples may correct tilt.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct GateSettings {
+    /// Magnitude gate: skip the update when `| |a|/g − 1 |` exceeds this, dimensionless.
+    /// Default 0.05 (the source's 1 ± 0.05 g).
+    pub norm_tolerance: f32,
+    /// Knock detection by jump: skip when the accelerometer moved by more than this between
+    /// two consecutive samples, g. Default 0.05 g.
+    pub jump_g: f32,
+    /// Knock detection by innovation (filters with an innovation covariance): skip when the
+    /// normalised innovation squared exceeds this (χ², 2 degrees of freedom). Default 16
+    /// (p ≈ 3·10⁻⁴ for a consistent filter).
+    pub innovation_chi2: f32,
+    /// After any rejection, keep skipping for this long, s (knocks ring). Default 0.1 s.
+    pub holdoff_s: f32,
+    /// When only the innovation gate has rejected for this long, s, bypass it so the filter
+    /// can reacquire a tilt it has lost. Default 2 s.
+    pub reacquire_s: f32,
+    /// Continuous rejection longer than this, s, raises `ACCEL_REJECT_LONG`. Default 10 s.
+    pub long_reject_s: f32,
+}
+
+impl Default for GateSettings {
+    fn default() -> Self {
+        GateSettings {
+            norm_tolerance: 0.05,
+            jump_g: 0.05,
+            innovation_chi2: 16.0,
+            holdoff_s: 0.1,
+            reacquire_s: 2.0,
+            long_reject_s: 10.0,
+        }
+    }
+}
+
+/// Plausibility limits of the input.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct LimitSettings {
+    /// Gyro full scale, rad/s: a sample at or beyond it is flagged saturated (still used).
+    /// Default 300 °/s (LPR430AL, LY330ALH).
+    pub gyro_range: f32,
+    /// A gyro sample beyond this, rad/s, is absurd and rejected. Default 2000 °/s.
+    pub gyro_abs_max: f32,
+    /// An accelerometer sample beyond this norm, g, is absurd and rejected. Default 16 g.
+    pub accel_abs_max_g: f32,
+    /// An accelerometer sample below this norm, g, has no usable direction. Default 0.1 g.
+    pub accel_min_g: f32,
+    /// Longest `dt` integrated with the sample's rate, s; a longer gap propagates the
+    /// attitude over this much only and the uncertainty over the whole gap. Default 0.5 s.
+    pub max_gap_s: f32,
+}
+
+impl Default for LimitSettings {
+    fn default() -> Self {
+        LimitSettings {
+            gyro_range: deg(300.0),
+            gyro_abs_max: deg(2000.0),
+            accel_abs_max_g: 16.0,
+            accel_min_g: 0.1,
+            max_gap_s: 0.5,
+        }
+    }
+}
+
+/// Rest detection: while the vehicle is still, re-estimate the gyro bias and hold yaw.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct RestSettings {
+    /// Enable rest detection. Default true.
+    pub enabled: bool,
+    /// Length of one detection block, s. Default 2 s.
+    pub block_s: f32,
+    /// Consecutive still blocks before rest is declared. Default 2.
+    pub min_blocks: u8,
+    /// Largest bias-corrected mean rate per axis in a still block, rad/s, on top of three
+    /// standard errors of the block mean. Default 0.2 °/s: a steady 0.5 °/s turn is motion.
+    pub rate_threshold: f32,
+    /// Largest gyro sample variance in a still block, as a multiple of the configured noise
+    /// variance. Default 4.
+    pub gyro_var_factor: f32,
+    /// Largest accelerometer standard deviation per axis in a still block, g. Default 0.01 g.
+    pub accel_std_max_g: f32,
+    /// Standard deviation added to the bias measurement of a still block, rad/s (covers
+    /// Earth rate and slow thermal drift). Default 0.005 °/s.
+    pub bias_meas_floor: f32,
+    /// Hold yaw while at rest: undo the yaw integrated over each still block. Default true.
+    pub yaw_hold: bool,
+}
+
+impl Default for RestSettings {
+    fn default() -> Self {
+        RestSettings {
+            enabled: true,
+            block_s: 2.0,
+            min_blocks: 2,
+            rate_threshold: deg(0.2),
+            gyro_var_factor: 4.0,
+            accel_std_max_g: 0.01,
+            bias_meas_floor: deg(0.005),
+            yaw_hold: true,
+        }
+    }
+}
+
+/// Optional magnetometer heading correction (off by default: the Seahog's thrusters and
+/// cables distort the field).
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct MagSettings {
+    /// Use the magnetometer. Default false.
+    pub enabled: bool,
+    /// Expected field strength, µT. Default 25.6 µT (Cape Town, approximate; take your site's
+    /// value from a geomagnetic model).
+    pub field_ut: f32,
+    /// Expected dip (inclination) below the horizontal, rad, positive down. Default −65°
+    /// (Cape Town, approximate).
+    pub dip: f32,
+    /// Declination (magnetic north east of true north), rad. Default −25.5° (Cape Town,
+    /// approximate).
+    pub declination: f32,
+    /// Reject samples whose field norm differs from `field_ut` by more than this fraction.
+    /// Default 0.15.
+    pub norm_tolerance: f32,
+    /// Reject samples whose dip differs from `dip` by more than this, rad. Default 5°.
+    pub dip_tolerance: f32,
+    /// Heading measurement standard deviation, rad. Default 3°.
+    pub heading_sigma: f32,
+}
+
+impl Default for MagSettings {
+    fn default() -> Self {
+        MagSettings {
+            enabled: false,
+            field_ut: 25.6,
+            dip: deg(-65.0),
+            declination: deg(-25.5),
+            norm_tolerance: 0.15,
+            dip_tolerance: deg(5.0),
+            heading_sigma: deg(3.0),
+        }
+    }
+}
+
+/// EKF tuning beyond the sensor facts.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct EkfSettings {
+    /// Yaw-split: accelerometer corrections never change yaw. Default true (the source's
+    /// board implementation); false reproduces its first implementation.
+    pub yaw_split: bool,
+    /// Accelerometer measurement variance as a multiple of `NoiseSettings::accel_var`, to
+    /// cover unmodelled accelerations. Default 10.
+    pub accel_var_scale: f32,
+    /// Gyro-bias random walk, (rad/s)²/s per axis. Default (0.002 °/s)²/s.
+    pub bias_random_walk: f32,
+    /// Constant yaw drift subtracted from the yaw integral, rad/s (the source's
+    /// compensation, 16.2 °/h on its board). Default 0: rest detection replaces it.
+    pub yaw_drift_rate: f32,
+    /// Tilt (roll, pitch) standard deviation after initialisation, rad. Default 2°.
+    pub initial_tilt_sigma: f32,
+    /// Yaw standard deviation after initialisation, rad. Default 5°.
+    pub initial_yaw_sigma: f32,
+    /// Gyro-bias standard deviation after initialisation, rad/s. Default 0.2 °/s.
+    pub initial_bias_sigma: f32,
+}
+
+impl Default for EkfSettings {
+    fn default() -> Self {
+        EkfSettings {
+            yaw_split: true,
+            accel_var_scale: 10.0,
+            bias_random_walk: deg(0.002) * deg(0.002),
+            yaw_drift_rate: 0.0,
+            initial_tilt_sigma: deg(2.0),
+            initial_yaw_sigma: deg(5.0),
+            initial_bias_sigma: deg(0.2),
+        }
+    }
+}
+
+/// Everything the estimator needs; `Default` is the iNEMO V2 / Seahog configuration.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Settings {
+    /// Sensor noise model.
+    pub noise: NoiseSettings,
+    /// Initialisation window.
+    pub init: InitSettings,
+    /// Accelerometer gating.
+    pub gate: GateSettings,
+    /// Input plausibility limits.
+    pub limits: LimitSettings,
+    /// Rest detection.
+    pub rest: RestSettings,
+    /// Magnetometer heading update.
+    pub mag: MagSettings,
+    /// EKF tuning.
+    pub ekf: EkfSettings,
+}

@@ -1,0 +1,31 @@
+#!/usr/bin/env bash
+# One set-up path for the README, CI and developers. Idempotent; quiet when already done.
+#  - host toolchain components (rustfmt, clippy) when rustup manages the toolchain;
+#  - the thumbv7m-none-eabi route (scripts/setup-thumb.sh);
+#  - qemu-system-arm for the emulated runs.
+set -euo pipefail
+root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+
+log() { echo "setup: $*" >&2; }
+
+apt_install() {
+  export DEBIAN_FRONTEND=noninteractive
+  if ! apt-get install -y -qq --no-install-recommends "$@" >/dev/null 2>&1; then
+    apt-get update -qq >/dev/null
+    apt-get install -y -qq --no-install-recommends "$@" >/dev/null
+  fi
+}
+
+if command -v rustup >/dev/null 2>&1; then
+  for c in rustfmt clippy; do
+    rustup component list --installed 2>/dev/null | grep -q "^$c" \
+      || { log "adding $c"; rustup component add "$c" >/dev/null 2>&1 || log "could not add $c"; }
+  done
+fi
+
+"$root/scripts/setup-thumb.sh"
+
+if ! command -v qemu-system-arm >/dev/null 2>&1; then
+  log "installing qemu-system-arm"
+  apt_install qemu-system-arm
+fi
