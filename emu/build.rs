@@ -9,9 +9,8 @@ fn main() {
     let out = PathBuf::from(env::var("OUT_DIR").expect("OUT_DIR"));
     let manifest = PathBuf::from(env::var("CARGO_MANIFEST_DIR").expect("manifest dir"));
     println!("cargo:rerun-if-env-changed=EKF_EMU_TRACE");
-    let trace = env::var("EKF_EMU_TRACE")
-        .map(PathBuf::from)
-        .unwrap_or_else(|_| manifest.join("trace.csv"));
+    let trace =
+        env::var("EKF_EMU_TRACE").map(PathBuf::from).unwrap_or_else(|_| manifest.join("trace.csv"));
     println!("cargo:rerun-if-changed={}", trace.display());
     let text = fs::read_to_string(&trace)
         .unwrap_or_else(|e| panic!("cannot read trace {}: {e}", trace.display()));
@@ -37,7 +36,8 @@ fn pack(text: &str) -> Vec<u8> {
     let col = |n: &str| {
         names.iter().position(|h| *h == n).unwrap_or_else(|| panic!("trace lacks column {n}"))
     };
-    let idx: Vec<usize> = ["t", "gx", "gy", "gz", "ax", "ay", "az"].iter().map(|n| col(n)).collect();
+    let idx: Vec<usize> =
+        ["t", "gx", "gy", "gz", "ax", "ay", "az"].iter().map(|n| col(n)).collect();
     let mut bytes = Vec::new();
     let mut prev_t: Option<f64> = None;
     for (i, line) in lines {

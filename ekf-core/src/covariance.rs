@@ -133,7 +133,13 @@ impl Cov6 {
     /// variance `r`; only rows with `free[i]` move (Joseph-consistent, as in `update_tilt`).
     /// Returns the correction and the normalised innovation squared, or `None` when the
     /// innovation variance is not positive.
-    pub fn update_scalar(&mut self, j: usize, z: f32, r: f32, free: [bool; N]) -> Option<([f32; N], f32)> {
+    pub fn update_scalar(
+        &mut self,
+        j: usize,
+        z: f32,
+        r: f32,
+        free: [bool; N],
+    ) -> Option<([f32; N], f32)> {
         let j = j.min(N - 1);
         let s = self.m[j][j] + r;
         if !(s.is_finite() && s > 0.0) {

@@ -28,6 +28,10 @@ const MAX_ATT_VAR: f32 = 10.0;
 /// Largest bias-error variance before the health check resets the covariance, (rad/s)².
 const MAX_BIAS_VAR: f32 = 1.0;
 
+/// Added to the initial bias variance from the window, (rad/s)² ((0.002 °/s)²): what the
+/// window's average cannot know (turn-on drift, the window's own imperfect stillness).
+const BIAS_VAR_FLOOR: f32 = 1.218e-9;
+
 /// The quaternion EKF. See the module documentation.
 #[derive(Clone, Debug)]
 pub struct Ekf {
@@ -180,9 +184,8 @@ impl Ekf {
     /// Yaw-split: rotate about NED z so that the yaw equals that of `q_pred` again.
     fn restore_yaw(&mut self, q_pred: Quaternion) {
         // Heading vectors (cos ψ, sin ψ) up to scale, from the first column of R.
-        let heading = |q: Quaternion| {
-            (1.0 - 2.0 * (q.y * q.y + q.z * q.z), 2.0 * (q.x * q.y + q.w * q.z))
-        };
+        let heading =
+            |q: Quaternion| (1.0 - 2.0 * (q.y * q.y + q.z * q.z), 2.0 * (q.x * q.y + q.w * q.z));
         let (pc, ps) = heading(q_pred);
         let (cc, cs) = heading(self.q);
         // Rotation from the corrected heading to the predicted one.
@@ -302,7 +305,16 @@ impl AttitudeFilter for Ekf {
                     self.q = q;
                     flags |= Flags::INITIALISING;
                 }
-                InitStep::Done(q, b) => self.start(q, b),
+                InitStep::Done(q, b) => {
+                    let var = init.bias_variance(&self.settings.noise);
+                    self.start(q, b);
+                    if let Some(v) = var {
+                        // The window measured the bias: start with its actual uncertainty.
+                        for i in 0..3 {
+                            self.p.m[3 + i][3 + i] = v[i] + BIAS_VAR_FLOOR;
+                        }
+                    }
+                }
             }
             self.last_flags = flags;
             return flags;

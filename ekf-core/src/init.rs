@@ -77,6 +77,18 @@ impl Initializer {
         self.elapsed
     }
 
+    /// Variance of the window's gyro-bias estimate per axis, (rad/s)²: the configured
+    /// per-sample noise at the window's sample rate over the number of samples. `None` when
+    /// the bias is not estimated from the window.
+    pub fn bias_variance(&self, noise: &crate::settings::NoiseSettings) -> Option<Vec3> {
+        if !self.settings.estimate_gyro_bias || self.gyro_n == 0 || !(self.elapsed > 0.0) {
+            return None;
+        }
+        let n = self.gyro_n as f32;
+        let rate_hz = n / self.elapsed;
+        Some(noise.gyro_var * (rate_hz / noise.gyro_ref_rate_hz.max(1e-3) / n))
+    }
+
     /// Add one sample: `dt` s, the gyro (rad/s) when valid, the accelerometer (any unit, body
     /// FRD) when it passed the magnitude gate.
     pub fn push(&mut self, dt: f32, gyro: Option<Vec3>, accel: Option<Vec3>) -> InitStep {

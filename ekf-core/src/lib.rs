@@ -16,6 +16,10 @@
 #![no_std]
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
+// `!(x > 0.0)` is deliberate throughout: unlike `x <= 0.0` it is also true for NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+// Small fixed-size matrix code reads best with explicit indices.
+#![allow(clippy::needless_range_loop)]
 
 pub mod accel_calibration;
 pub mod axis_map;
@@ -35,10 +39,10 @@ pub mod quaternion;
 pub mod rest;
 pub mod sample;
 pub mod settings;
+pub mod ssukf;
+pub mod ukf;
+mod unscented;
 pub mod validate;
-// TEMP pub mod ssukf;
-// TEMP pub mod ukf;
-// TEMP mod unscented;
 pub mod vec3;
 
 pub use complementary::Complementary;
@@ -50,8 +54,8 @@ pub use gyro_only::GyroOnly;
 pub use quaternion::Quaternion;
 pub use sample::ImuSample;
 pub use settings::Settings;
-// TEMP pub use ssukf::SsUkf;
-// TEMP pub use ukf::Ukf;
+pub use ssukf::SsUkf;
+pub use ukf::Ukf;
 pub use vec3::Vec3;
 
 /// Standard gravity, m/s². The accelerometer gate and the calibration model work in units of it.

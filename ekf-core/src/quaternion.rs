@@ -168,11 +168,7 @@ impl Quaternion {
     #[inline]
     pub fn down_in_body(self) -> Vec3 {
         let Quaternion { w, x, y, z } = self;
-        Vec3::new(
-            2.0 * (x * z - w * y),
-            2.0 * (y * z + w * x),
-            1.0 - 2.0 * (x * x + y * y),
-        )
+        Vec3::new(2.0 * (x * z - w * y), 2.0 * (y * z + w * x), 1.0 - 2.0 * (x * x + y * y))
     }
 
     /// Normalised linear interpolation toward `o` by `t ∈ [0, 1]` along the shorter arc.
@@ -263,7 +259,8 @@ mod tests {
 
     #[test]
     fn rotation_vector_round_trip_and_small_angles() {
-        for v in [Vec3::new(0.3, -0.2, 0.9), Vec3::new(1e-5, 2e-5, -1e-5), Vec3::new(0.0, 3.0, 0.0)] {
+        for v in [Vec3::new(0.3, -0.2, 0.9), Vec3::new(1e-5, 2e-5, -1e-5), Vec3::new(0.0, 3.0, 0.0)]
+        {
             let back = Quaternion::from_rotation_vector(v).to_rotation_vector();
             assert!(close(back, v, 1e-5), "{v:?} -> {back:?}");
         }

@@ -158,7 +158,8 @@ mod tests {
         let noise = NoiseSettings::default();
         let mut d = RestDetector::new(RestSettings::default());
         let mut rng = Noise(7);
-        let sd = Vec3::new(noise.gyro_var.x.sqrt(), noise.gyro_var.y.sqrt(), noise.gyro_var.z.sqrt());
+        let sd =
+            Vec3::new(noise.gyro_var.x.sqrt(), noise.gyro_var.y.sqrt(), noise.gyro_var.z.sqrt());
         let (mut blocks, mut rest) = (0, 0);
         for _ in 0..(seconds * 50.0) as usize {
             let w = rate + Vec3::new(rng.next() * sd.x, rng.next() * sd.y, rng.next() * sd.z);

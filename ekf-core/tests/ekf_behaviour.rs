@@ -37,14 +37,18 @@ fn initialisation_window_gives_tilt_yaw_and_bias() {
     assert!((to_deg(e.yaw) - 123.0).abs() < 0.05, "{e:?}");
     // Bias from the window: 500 samples of the board's gyro noise.
     let b = f.gyro_bias() - Sensors::board().gyro_bias;
-    assert!(to_deg(b.x).abs() < 0.1 && to_deg(b.y).abs() < 0.1 && to_deg(b.z).abs() < 0.02, "{b:?}");
+    assert!(
+        to_deg(b.x).abs() < 0.1 && to_deg(b.y).abs() < 0.1 && to_deg(b.z).abs() < 0.02,
+        "{b:?}"
+    );
 }
 
 #[test]
 fn constant_rate_propagation_equals_the_exact_rotation() {
     // Noise-free: 20°/s about a skew body axis for 5 s with consistent accelerometer.
     let w = Vec3::new(deg(12.0), deg(-9.0), deg(13.0));
-    let run = simulate(Quaternion::IDENTITY, 5.0, 100.0, Sensors::perfect(), 2, |_| (w, Vec3::ZERO));
+    let run =
+        simulate(Quaternion::IDENTITY, 5.0, 100.0, Sensors::perfect(), 2, |_| (w, Vec3::ZERO));
     let mut f = started(Settings::default(), Quaternion::IDENTITY, Vec3::ZERO);
     for s in &run.samples {
         f.update(s);
@@ -231,8 +235,7 @@ fn magnetometer_moves_only_yaw_and_rejects_disturbed_samples() {
     let run = simulate(truth, 60.0, 50.0, Sensors::perfect(), 10, still);
     // Earth field in NED for the configured declination and dip.
     let (f0, dip, dec) = (s.mag.field_ut, s.mag.dip, s.mag.declination);
-    let field_ned =
-        Vec3::new(dip.cos() * dec.cos(), dip.cos() * dec.sin(), dip.sin()) * f0;
+    let field_ned = Vec3::new(dip.cos() * dec.cos(), dip.cos() * dec.sin(), dip.sin()) * f0;
     // Magnetic yaw: truth yaw is measured from true north; the filter starts 20° off.
     let start = Euler::new(deg(5.0), deg(-4.0), deg(40.0)).to_quaternion();
     let mut f = started(s, start, Vec3::ZERO);

@@ -9,11 +9,8 @@ use core::hint::black_box;
 use ekf_core::{settings::Settings, AttitudeFilter, Ekf, ImuSample, Vec3};
 
 fn step(ekf: &mut Ekf) {
-    let s = black_box(ImuSample::new(
-        0.02,
-        Vec3::new(0.01, -0.02, 0.003),
-        Vec3::new(0.1, -0.2, -9.8),
-    ));
+    let s =
+        black_box(ImuSample::new(0.02, Vec3::new(0.01, -0.02, 0.003), Vec3::new(0.1, -0.2, -9.8)));
     black_box(ekf.update(&s));
     black_box(ekf.attitude());
 }
@@ -39,9 +36,7 @@ mod target {
     #[cfg(not(feature = "panic-proof"))]
     #[panic_handler]
     fn panic(_: &core::panic::PanicInfo) -> ! {
-        loop {
-            cortex_m::asm::udf();
-        }
+        cortex_m::asm::udf()
     }
 
     #[cfg(feature = "panic-proof")]
