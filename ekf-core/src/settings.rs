@@ -223,8 +223,9 @@ pub struct EkfSettings {
     /// Yaw-split: accelerometer corrections never change yaw. Default true (the source's
     /// board implementation); false reproduces its first implementation.
     pub yaw_split: bool,
-    /// Accelerometer measurement variance as a multiple of `NoiseSettings::accel_var`, to
-    /// cover unmodelled accelerations. Default 10.
+    /// Accelerometer measurement variance as a multiple of `NoiseSettings::accel_var`; raise it
+    /// to cover vibration and unmodelled accelerations. Default 1 (the datasheet noise: the
+    /// lowest tilt error on every simulated scenario, see `docs/accuracy.md`).
     pub accel_var_scale: f32,
     /// Gyro-bias random walk, (rad/s)²/s per axis. Default (0.002 °/s)²/s.
     pub bias_random_walk: f32,
@@ -243,7 +244,7 @@ impl Default for EkfSettings {
     fn default() -> Self {
         EkfSettings {
             yaw_split: true,
-            accel_var_scale: 10.0,
+            accel_var_scale: 1.0,
             bias_random_walk: deg(0.002) * deg(0.002),
             yaw_drift_rate: 0.0,
             initial_tilt_sigma: deg(2.0),

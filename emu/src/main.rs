@@ -1,6 +1,6 @@
-//! `ekf-emu`: the EKF over an embedded trace, printing estimate rows — on the host to stdout,
-//! on a Cortex-M3 (QEMU netduino2, the firmware's memory map) through semihosting. `scripts/run-emulated --check`
-//! compares the two byte for byte.
+//! `ekf-emu`: the firmware's pipeline over an embedded trace, printing its NMEA sentences — on
+//! the host to stdout, on a Cortex-M3 (QEMU netduino2, the firmware's memory map) through
+//! semihosting. `scripts/run-emulated --check` compares the two byte for byte.
 #![cfg_attr(target_os = "none", no_std, no_main)]
 
 mod run;

@@ -1,0 +1,20 @@
+//! Host tools for `ekf-core`: the iNEMO V2 sensor simulator ([`sim`]), the trace CSV format
+//! ([`trace`], `shared/trace-format.md`), trace replay through the estimators with RMSE
+//! ([`replay`], [`config`]) and plots ([`plot`]). The `host-tests` binary exposes them as the
+//! `simulate`, `replay` and `plot` commands; [`accuracy`] is the evaluation behind the
+//! accuracy benchmark and its regression tests (`docs/accuracy.md`).
+//!
+//! Conventions are those of `ekf-core`: body FRD, reference NED, SI units, scalar-first
+//! Hamilton quaternion rotating body → NED, Z-Y-X Euler angles (degrees in files), the
+//! accelerometer reads specific force (a level, still board reads (0, 0, −9.81) m/s²).
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
+pub mod accuracy;
+pub mod config;
+pub mod output;
+pub mod plot;
+pub mod replay;
+pub mod rng;
+pub mod sim;
+pub mod trace;

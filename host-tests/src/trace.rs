@@ -1,0 +1,862 @@
+//! The trace CSV format of `shared/trace-format.md`: reading and writing input traces and
+//! estimate files.
+//!
+//! Reading rules:
+//! - the first line that is neither empty nor a comment is the header; columns are found by
+//!   name (surrounding spaces ignored), in any order; unknown columns are ignored; a column
+//!   name may not appear twice;
+//! - required columns: `t` (s, strictly increasing), `gx,gy,gz` (rad/s), `ax,ay,az` (m/s²,
+//!   specific force); optional: `mx,my,mz` (µT, all three or none), `depth` (m),
+//!   `qw,qx,qy,qz` (truth, all four or none);
+//! - empty lines and lines whose first non-blank character is `#` are comments, anywhere;
+//! - every data line has exactly as many cells as the header; cells may be padded with spaces;
+//!   `\r\n` line ends are accepted;
+//! - required cells must be finite numbers. Optional cells may be empty (no sample on that row,
+//!   e.g. a magnetometer at a lower rate) but a group (`mx,my,mz` or `qw..qz`) is all empty or
+//!   all numbers.
+//!
+//! Every error is a [`TraceError`] naming the 1-based line number and, where one is at fault,
+//! the column.
+//!
+//! Writing uses shortest round-trip formatting (the `ryu` crate: the same digits as Rust's
+//! `{}`, with an exponent for very small or large values), so an `f32` written and read back
+//! is bit-identical; `t` is kept as `f64`. NaN or infinite values are written as `NaN`/`inf`
+//! (the reader rejects them).
+
+use std::fmt;
+use std::io::{self, BufRead, Write};
+
+/// One row of an input trace, units as in the file.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TraceRow {
+    /// Time, s.
+    pub t: f64,
+    /// Angular rate, rad/s, gyro axes (body FRD for simulated traces).
+    pub gyro: [f32; 3],
+    /// Specific force, m/s², accelerometer axes (body FRD for simulated traces).
+    pub accel: [f32; 3],
+    /// Magnetic field, µT, when the row has one.
+    pub mag: Option<[f32; 3]>,
+    /// Depth, m, positive down, when the row has one.
+    pub depth: Option<f32>,
+    /// Ground-truth attitude `(qw, qx, qy, qz)`, body FRD → NED, when the row has one.
+    pub truth: Option<[f32; 4]>,
+}
+
+/// Why a trace or estimate file could not be read.
+#[derive(Debug)]
+pub enum TraceError {
+    /// Reading failed.
+    Io(io::Error),
+    /// No header line (the file is empty or only has comments).
+    NoHeader,
+    /// A line is not valid UTF-8.
+    InvalidUtf8 {
+        /// 1-based line number.
+        line: usize,
+    },
+    /// A required column (or a member of an optional group that is partly present) is missing
+    /// from the header.
+    MissingColumn {
+        /// 1-based line number of the header.
+        line: usize,
+        /// The missing column.
+        column: String,
+    },
+    /// A column name appears twice in the header.
+    DuplicateColumn {
+        /// 1-based line number of the header.
+        line: usize,
+        /// The repeated column.
+        column: String,
+    },
+    /// A data line does not have as many cells as the header.
+    CellCount {
+        /// 1-based line number.
+        line: usize,
+        /// Cells in the header.
+        expected: usize,
+        /// Cells on this line.
+        found: usize,
+        /// First header column without a cell (too few cells), or `None` (too many).
+        column: Option<String>,
+    },
+    /// A cell is not a number (or is empty where a number is required).
+    NotANumber {
+        /// 1-based line number.
+        line: usize,
+        /// Column of the cell.
+        column: String,
+        /// The cell's text.
+        text: String,
+    },
+    /// A cell is NaN or infinite.
+    NotFinite {
+        /// 1-based line number.
+        line: usize,
+        /// Column of the cell.
+        column: String,
+        /// The cell's text.
+        text: String,
+    },
+    /// An optional group (`mx,my,mz` or `qw,qx,qy,qz`) is only partly filled on a line.
+    PartialGroup {
+        /// 1-based line number.
+        line: usize,
+        /// The empty column of the group.
+        column: String,
+    },
+    /// `t` is not strictly greater than on the previous data line.
+    TimeNotIncreasing {
+        /// 1-based line number.
+        line: usize,
+        /// This line's time, s.
+        t: f64,
+        /// The previous data line's time, s.
+        previous: f64,
+    },
+}
+
+impl TraceError {
+    /// The 1-based line the error is on, when it is about a line.
+    pub fn line(&self) -> Option<usize> {
+        match self {
+            TraceError::Io(_) | TraceError::NoHeader => None,
+            TraceError::InvalidUtf8 { line }
+            | TraceError::MissingColumn { line, .. }
+            | TraceError::DuplicateColumn { line, .. }
+            | TraceError::CellCount { line, .. }
+            | TraceError::NotANumber { line, .. }
+            | TraceError::NotFinite { line, .. }
+            | TraceError::PartialGroup { line, .. }
+            | TraceError::TimeNotIncreasing { line, .. } => Some(*line),
+        }
+    }
+
+    /// The column the error is about, when there is one.
+    pub fn column(&self) -> Option<&str> {
+        match self {
+            TraceError::MissingColumn { column, .. }
+            | TraceError::DuplicateColumn { column, .. }
+            | TraceError::NotANumber { column, .. }
+            | TraceError::NotFinite { column, .. }
+            | TraceError::PartialGroup { column, .. } => Some(column),
+            TraceError::CellCount { column, .. } => column.as_deref(),
+            TraceError::TimeNotIncreasing { .. } => Some("t"),
+            _ => None,
+        }
+    }
+}
+
+impl fmt::Display for TraceError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            TraceError::Io(e) => write!(f, "read error: {e}"),
+            TraceError::NoHeader => write!(f, "no header line (empty file?)"),
+            TraceError::InvalidUtf8 { line } => write!(f, "line {line}: not valid UTF-8"),
+            TraceError::MissingColumn { line, column } => {
+                write!(f, "line {line}, column '{column}': missing from the header")
+            }
+            TraceError::DuplicateColumn { line, column } => {
+                write!(f, "line {line}, column '{column}': appears twice in the header")
+            }
+            TraceError::CellCount { line, expected, found, column: Some(c) } => write!(
+                f,
+                "line {line}, column '{c}': no cell ({found} cells, the header has {expected})"
+            ),
+            TraceError::CellCount { line, expected, found, column: None } => write!(
+                f,
+                "line {line}, column {}: extra cell ({found} cells, the header has {expected})",
+                expected + 1
+            ),
+            TraceError::NotANumber { line, column, text } => {
+                write!(f, "line {line}, column '{column}': not a number: {text:?}")
+            }
+            TraceError::NotFinite { line, column, text } => {
+                write!(f, "line {line}, column '{column}': not finite: {text:?}")
+            }
+            TraceError::PartialGroup { line, column } => write!(
+                f,
+                "line {line}, column '{column}': empty while other cells of its group are set"
+            ),
+            TraceError::TimeNotIncreasing { line, t, previous } => write!(
+                f,
+                "line {line}, column 't': time {t} is not after the previous row's {previous}"
+            ),
+        }
+    }
+}
+
+impl std::error::Error for TraceError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        match self {
+            TraceError::Io(e) => Some(e),
+            _ => None,
+        }
+    }
+}
+
+impl From<io::Error> for TraceError {
+    fn from(e: io::Error) -> Self {
+        TraceError::Io(e)
+    }
+}
+
+/// Low-level reader: header by name, comment skipping and cell splitting, without allocating
+/// per cell. [`TraceReader`] and [`EstimateReader`] are built on it.
+pub struct CsvReader<R> {
+    reader: R,
+    buf: Vec<u8>,
+    line: usize,
+    header: Vec<String>,
+    header_line: usize,
+    /// `(start, end)` byte ranges of the current record's cells in `buf`, trimmed.
+    cells: Vec<(usize, usize)>,
+}
+
+fn trim_range(buf: &[u8], mut s: usize, mut e: usize) -> (usize, usize) {
+    while s < e && matches!(buf[s], b' ' | b'\t' | b'\r') {
+        s += 1;
+    }
+    while e > s && matches!(buf[e - 1], b' ' | b'\t' | b'\r' | b'\n') {
+        e -= 1;
+    }
+    (s, e)
+}
+
+impl<R: BufRead> CsvReader<R> {
+    /// Read the header (skipping leading comments and empty lines).
+    pub fn new(reader: R) -> Result<Self, TraceError> {
+        let mut r = CsvReader {
+            reader,
+            buf: Vec::with_capacity(256),
+            line: 0,
+            header: Vec::new(),
+            header_line: 0,
+            cells: Vec::with_capacity(32),
+        };
+        if !r.next_content_line()? {
+            return Err(TraceError::NoHeader);
+        }
+        let text = std::str::from_utf8(&r.buf)
+            .map_err(|_| TraceError::InvalidUtf8 { line: r.line })?
+            .to_owned();
+        r.header_line = r.line;
+        for (s, e) in &r.cells {
+            let name = text[*s..*e].to_owned();
+            if r.header.contains(&name) {
+                return Err(TraceError::DuplicateColumn { line: r.line, column: name });
+            }
+            r.header.push(name);
+        }
+        Ok(r)
+    }
+
+    /// The header's column names, in file order.
+    pub fn header(&self) -> &[String] {
+        &self.header
+    }
+
+    /// 1-based line number of the header.
+    pub fn header_line(&self) -> usize {
+        self.header_line
+    }
+
+    /// Index of a column, if present.
+    pub fn index_of(&self, name: &str) -> Option<usize> {
+        self.header.iter().position(|h| h == name)
+    }
+
+    /// Index of a required column, or the `MissingColumn` error naming it.
+    pub fn require(&self, name: &str) -> Result<usize, TraceError> {
+        self.index_of(name).ok_or_else(|| TraceError::MissingColumn {
+            line: self.header_line,
+            column: name.into(),
+        })
+    }
+
+    /// Indices of a group of columns that must be all present or all absent.
+    pub fn group<const N: usize>(
+        &self,
+        names: [&str; N],
+    ) -> Result<Option<[usize; N]>, TraceError> {
+        let found = names.map(|n| self.index_of(n));
+        if found.iter().all(Option::is_none) {
+            return Ok(None);
+        }
+        let mut out = [0; N];
+        for (i, f) in found.iter().enumerate() {
+            out[i] = f.ok_or_else(|| TraceError::MissingColumn {
+                line: self.header_line,
+                column: names[i].into(),
+            })?;
+        }
+        Ok(Some(out))
+    }
+
+    /// Read the next non-comment line into `buf` and split it into `cells`. False at the end.
+    fn next_content_line(&mut self) -> Result<bool, TraceError> {
+        loop {
+            self.buf.clear();
+            if self.reader.read_until(b'\n', &mut self.buf)? == 0 {
+                return Ok(false);
+            }
+            self.line += 1;
+            let (s, e) = trim_range(&self.buf, 0, self.buf.len());
+            if s == e || self.buf[s] == b'#' {
+                continue;
+            }
+            self.cells.clear();
+            let end = e;
+            let mut start = 0;
+            let buf = &self.buf[..end];
+            while let Some(p) = buf[start..].iter().position(|&b| b == b',') {
+                self.cells.push(trim_range(buf, start, start + p));
+                start += p + 1;
+            }
+            self.cells.push(trim_range(buf, start, end));
+            return Ok(true);
+        }
+    }
+
+    /// Advance to the next data record. `Ok(None)` at the end of the input.
+    pub fn next_record(&mut self) -> Result<Option<Record<'_>>, TraceError> {
+        if !self.next_content_line()? {
+            return Ok(None);
+        }
+        let n = self.header.len();
+        if self.cells.len() != n {
+            let column = if self.cells.len() < n {
+                Some(self.header[self.cells.len()].clone())
+            } else {
+                None
+            };
+            return Err(TraceError::CellCount {
+                line: self.line,
+                expected: n,
+                found: self.cells.len(),
+                column,
+            });
+        }
+        let text = std::str::from_utf8(&self.buf)
+            .map_err(|_| TraceError::InvalidUtf8 { line: self.line })?;
+        Ok(Some(Record { text, cells: &self.cells, header: &self.header, line: self.line }))
+    }
+}
+
+/// One data line of a [`CsvReader`].
+pub struct Record<'a> {
+    text: &'a str,
+    cells: &'a [(usize, usize)],
+    header: &'a [String],
+    line: usize,
+}
+
+impl Record<'_> {
+    /// 1-based line number.
+    pub fn line(&self) -> usize {
+        self.line
+    }
+
+    /// Text of cell `i`, trimmed.
+    pub fn text(&self, i: usize) -> &str {
+        let (s, e) = self.cells[i];
+        &self.text[s..e]
+    }
+
+    fn parse<T: std::str::FromStr + Copy + Into<f64>>(&self, i: usize) -> Result<T, TraceError> {
+        let text = self.text(i);
+        match text.parse::<T>() {
+            Ok(v) if v.into().is_finite() => Ok(v),
+            Ok(_) => Err(TraceError::NotFinite {
+                line: self.line,
+                column: self.header[i].clone(),
+                text: text.into(),
+            }),
+            Err(_) => Err(TraceError::NotANumber {
+                line: self.line,
+                column: self.header[i].clone(),
+                text: text.into(),
+            }),
+        }
+    }
+
+    /// Cell `i` as a finite `f32`.
+    pub fn f32(&self, i: usize) -> Result<f32, TraceError> {
+        self.parse::<f32>(i)
+    }
+
+    /// Cell `i` as a finite `f64`.
+    pub fn f64(&self, i: usize) -> Result<f64, TraceError> {
+        self.parse::<f64>(i)
+    }
+
+    /// True if cell `i` is empty.
+    pub fn is_empty(&self, i: usize) -> bool {
+        let (s, e) = self.cells[i];
+        s == e
+    }
+
+    /// An optional group of cells: all empty → `None`, all finite numbers → `Some`.
+    pub fn group<const N: usize>(&self, idx: &[usize; N]) -> Result<Option<[f32; N]>, TraceError> {
+        let empty = idx.iter().filter(|&&i| self.is_empty(i)).count();
+        if empty == N {
+            return Ok(None);
+        }
+        if empty > 0 {
+            let i = *idx.iter().find(|&&i| self.is_empty(i)).unwrap_or(&idx[0]);
+            return Err(TraceError::PartialGroup {
+                line: self.line,
+                column: self.header[i].clone(),
+            });
+        }
+        let mut out = [0.0; N];
+        for (o, &i) in out.iter_mut().zip(idx) {
+            *o = self.f32(i)?;
+        }
+        Ok(Some(out))
+    }
+}
+
+/// Which optional columns a trace has.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct TraceColumns {
+    /// `mx,my,mz` present.
+    pub mag: bool,
+    /// `depth` present.
+    pub depth: bool,
+    /// `qw,qx,qy,qz` present.
+    pub truth: bool,
+}
+
+/// Streaming reader of input traces.
+pub struct TraceReader<R> {
+    csv: CsvReader<R>,
+    t: usize,
+    gyro: [usize; 3],
+    accel: [usize; 3],
+    mag: Option<[usize; 3]>,
+    depth: Option<usize>,
+    truth: Option<[usize; 4]>,
+    prev_t: Option<f64>,
+}
+
+impl<R: BufRead> TraceReader<R> {
+    /// Read and check the header.
+    pub fn new(reader: R) -> Result<Self, TraceError> {
+        let csv = CsvReader::new(reader)?;
+        let t = csv.require("t")?;
+        let gyro = [csv.require("gx")?, csv.require("gy")?, csv.require("gz")?];
+        let accel = [csv.require("ax")?, csv.require("ay")?, csv.require("az")?];
+        let mag = csv.group(["mx", "my", "mz"])?;
+        let depth = csv.index_of("depth");
+        let truth = csv.group(["qw", "qx", "qy", "qz"])?;
+        Ok(TraceReader { csv, t, gyro, accel, mag, depth, truth, prev_t: None })
+    }
+
+    /// The optional columns present in the header.
+    pub fn columns(&self) -> TraceColumns {
+        TraceColumns {
+            mag: self.mag.is_some(),
+            depth: self.depth.is_some(),
+            truth: self.truth.is_some(),
+        }
+    }
+
+    /// The next row, `Ok(None)` at the end.
+    pub fn next_row(&mut self) -> Result<Option<TraceRow>, TraceError> {
+        let Some(rec) = self.csv.next_record()? else {
+            return Ok(None);
+        };
+        let t = rec.f64(self.t)?;
+        if let Some(prev) = self.prev_t {
+            if t <= prev {
+                return Err(TraceError::TimeNotIncreasing { line: rec.line(), t, previous: prev });
+            }
+        }
+        let gyro = [rec.f32(self.gyro[0])?, rec.f32(self.gyro[1])?, rec.f32(self.gyro[2])?];
+        let accel = [rec.f32(self.accel[0])?, rec.f32(self.accel[1])?, rec.f32(self.accel[2])?];
+        let mag = match &self.mag {
+            Some(idx) => rec.group(idx)?,
+            None => None,
+        };
+        let depth = match self.depth {
+            Some(i) if !rec.is_empty(i) => Some(rec.f32(i)?),
+            _ => None,
+        };
+        let truth = match &self.truth {
+            Some(idx) => rec.group(idx)?,
+            None => None,
+        };
+        self.prev_t = Some(t);
+        Ok(Some(TraceRow { t, gyro, accel, mag, depth, truth }))
+    }
+}
+
+impl<R: BufRead> Iterator for TraceReader<R> {
+    type Item = Result<TraceRow, TraceError>;
+    fn next(&mut self) -> Option<Self::Item> {
+        self.next_row().transpose()
+    }
+}
+
+/// Read a whole trace from a file.
+pub fn read_trace_file(
+    path: &std::path::Path,
+) -> Result<(TraceColumns, Vec<TraceRow>), TraceError> {
+    let f = std::fs::File::open(path)?;
+    let mut r = TraceReader::new(io::BufReader::with_capacity(1 << 16, f))?;
+    let cols = r.columns();
+    let mut rows = Vec::new();
+    while let Some(row) = r.next_row()? {
+        rows.push(row);
+    }
+    Ok((cols, rows))
+}
+
+/// One output line being assembled: shortest round-trip float formatting (`ryu`: `0.02`,
+/// `1.0`, `-9.80665`, `1.6284444e-12`), then a single write.
+struct Line<'a> {
+    buf: &'a mut Vec<u8>,
+    fb: ryu::Buffer,
+    first: bool,
+}
+
+impl<'a> Line<'a> {
+    fn new(buf: &'a mut Vec<u8>) -> Self {
+        buf.clear();
+        Line { buf, fb: ryu::Buffer::new(), first: true }
+    }
+
+    fn sep(&mut self) {
+        if !self.first {
+            self.buf.push(b',');
+        }
+        self.first = false;
+    }
+
+    fn f64(&mut self, v: f64) {
+        self.sep();
+        self.buf.extend_from_slice(self.fb.format(v).as_bytes());
+    }
+
+    fn f32s(&mut self, vs: &[f32]) {
+        for &v in vs {
+            self.sep();
+            self.buf.extend_from_slice(self.fb.format(v).as_bytes());
+        }
+    }
+
+    fn empty(&mut self, n: usize) {
+        for _ in 0..n {
+            self.sep();
+        }
+    }
+
+    fn finish<W: Write>(self, w: &mut W) -> io::Result<()> {
+        self.buf.push(b'\n');
+        w.write_all(self.buf)
+    }
+}
+
+fn itoa_u16(mut v: u16, buf: &mut [u8; 5]) -> &[u8] {
+    let mut i = buf.len();
+    loop {
+        i -= 1;
+        buf[i] = b'0' + (v % 10) as u8;
+        v /= 10;
+        if v == 0 {
+            return &buf[i..];
+        }
+    }
+}
+
+/// Writer of input traces.
+pub struct TraceWriter<W: Write> {
+    w: W,
+    cols: TraceColumns,
+    buf: Vec<u8>,
+}
+
+impl<W: Write> TraceWriter<W> {
+    /// Write the header: `t,gx,gy,gz,ax,ay,az`, then `mx,my,mz`, `depth`, `qw,qx,qy,qz` as
+    /// selected.
+    pub fn new(mut w: W, cols: TraceColumns) -> io::Result<Self> {
+        w.write_all(b"t,gx,gy,gz,ax,ay,az")?;
+        if cols.mag {
+            w.write_all(b",mx,my,mz")?;
+        }
+        if cols.depth {
+            w.write_all(b",depth")?;
+        }
+        if cols.truth {
+            w.write_all(b",qw,qx,qy,qz")?;
+        }
+        w.write_all(b"\n")?;
+        Ok(TraceWriter { w, cols, buf: Vec::with_capacity(192) })
+    }
+
+    /// A `# ` comment line (newlines in `text` are replaced by spaces).
+    pub fn comment(&mut self, text: &str) -> io::Result<()> {
+        writeln!(self.w, "# {}", text.replace(['\n', '\r'], " "))
+    }
+
+    /// One row. Optional columns missing from `row` are written as empty cells.
+    pub fn row(&mut self, row: &TraceRow) -> io::Result<()> {
+        let mut line = Line::new(&mut self.buf);
+        line.f64(row.t);
+        line.f32s(&row.gyro);
+        line.f32s(&row.accel);
+        if self.cols.mag {
+            match &row.mag {
+                Some(m) => line.f32s(m),
+                None => line.empty(3),
+            }
+        }
+        if self.cols.depth {
+            match row.depth {
+                Some(d) => line.f32s(&[d]),
+                None => line.empty(1),
+            }
+        }
+        if self.cols.truth {
+            match &row.truth {
+                Some(q) => line.f32s(q),
+                None => line.empty(4),
+            }
+        }
+        line.finish(&mut self.w)
+    }
+
+    /// Flush and return the inner writer.
+    pub fn finish(mut self) -> io::Result<W> {
+        self.w.flush()?;
+        Ok(self.w)
+    }
+}
+
+/// One row of an estimate file.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EstimateRow {
+    /// Time, s (the input row's).
+    pub t: f64,
+    /// Attitude `(qw, qx, qy, qz)`, body FRD → NED.
+    pub q: [f32; 4],
+    /// Z-Y-X Euler angles `(roll, pitch, yaw)`, degrees.
+    pub euler_deg: [f32; 3],
+    /// Estimated gyro bias, °/s, body FRD (`NaN` when the file has no bias columns).
+    pub bias_dps: [f32; 3],
+    /// The filter's flags (`ekf_core::Flags` bits; 0 when the file has none).
+    pub flags: u16,
+}
+
+/// Header of the estimate files this crate writes.
+pub const ESTIMATE_HEADER: &str = "t,qw,qx,qy,qz,roll,pitch,yaw,bias_x,bias_y,bias_z,flags";
+
+/// Writer of estimate files: `t,qw,qx,qy,qz,roll,pitch,yaw` (Euler in degrees), then
+/// `bias_x,bias_y,bias_z` (°/s) and `flags` (the `ekf_core::Flags` bits as an integer).
+pub struct EstimateWriter<W: Write> {
+    w: W,
+    buf: Vec<u8>,
+}
+
+impl<W: Write> EstimateWriter<W> {
+    /// Write the header.
+    pub fn new(mut w: W) -> io::Result<Self> {
+        writeln!(w, "{ESTIMATE_HEADER}")?;
+        Ok(EstimateWriter { w, buf: Vec::with_capacity(192) })
+    }
+
+    /// One row.
+    pub fn row(&mut self, r: &EstimateRow) -> io::Result<()> {
+        let mut line = Line::new(&mut self.buf);
+        line.f64(r.t);
+        line.f32s(&r.q);
+        line.f32s(&r.euler_deg);
+        line.f32s(&r.bias_dps);
+        line.sep();
+        line.buf.extend_from_slice(itoa_u16(r.flags, &mut [0; 5]));
+        line.finish(&mut self.w)
+    }
+
+    /// Flush and return the inner writer.
+    pub fn finish(mut self) -> io::Result<W> {
+        self.w.flush()?;
+        Ok(self.w)
+    }
+}
+
+/// Streaming reader of estimate files (required `t,qw,qx,qy,qz,roll,pitch,yaw`; optional
+/// `bias_x,bias_y,bias_z` and `flags`; other columns ignored).
+pub struct EstimateReader<R> {
+    csv: CsvReader<R>,
+    idx: [usize; 8],
+    bias: Option<[usize; 3]>,
+    flags: Option<usize>,
+}
+
+impl<R: BufRead> EstimateReader<R> {
+    /// Read and check the header.
+    pub fn new(reader: R) -> Result<Self, TraceError> {
+        let csv = CsvReader::new(reader)?;
+        let mut idx = [0; 8];
+        for (i, name) in ["t", "qw", "qx", "qy", "qz", "roll", "pitch", "yaw"].iter().enumerate() {
+            idx[i] = csv.require(name)?;
+        }
+        let bias = csv.group(["bias_x", "bias_y", "bias_z"])?;
+        let flags = csv.index_of("flags");
+        Ok(EstimateReader { csv, idx, bias, flags })
+    }
+
+    /// The next row, `Ok(None)` at the end.
+    pub fn next_row(&mut self) -> Result<Option<EstimateRow>, TraceError> {
+        let Some(rec) = self.csv.next_record()? else {
+            return Ok(None);
+        };
+        let i = &self.idx;
+        let t = rec.f64(i[0])?;
+        let q = [rec.f32(i[1])?, rec.f32(i[2])?, rec.f32(i[3])?, rec.f32(i[4])?];
+        let euler_deg = [rec.f32(i[5])?, rec.f32(i[6])?, rec.f32(i[7])?];
+        let bias_dps = match &self.bias {
+            Some(b) => rec.group(b)?.unwrap_or([f32::NAN; 3]),
+            None => [f32::NAN; 3],
+        };
+        let flags = match self.flags {
+            Some(fi) if !rec.is_empty(fi) => {
+                let text = rec.text(fi);
+                text.parse::<u16>().map_err(|_| TraceError::NotANumber {
+                    line: rec.line(),
+                    column: "flags".into(),
+                    text: text.into(),
+                })?
+            }
+            _ => 0,
+        };
+        Ok(Some(EstimateRow { t, q, euler_deg, bias_dps, flags }))
+    }
+}
+
+/// Read a whole estimate file.
+pub fn read_estimate_file(path: &std::path::Path) -> Result<Vec<EstimateRow>, TraceError> {
+    let f = std::fs::File::open(path)?;
+    let mut r = EstimateReader::new(io::BufReader::with_capacity(1 << 16, f))?;
+    let mut rows = Vec::new();
+    while let Some(row) = r.next_row()? {
+        rows.push(row);
+    }
+    Ok(rows)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn read(text: &str) -> Result<Vec<TraceRow>, TraceError> {
+        TraceReader::new(text.as_bytes())?.collect()
+    }
+
+    #[test]
+    fn columns_in_any_order_unknown_ignored_comments_skipped() {
+        let text = "# leading comment\n\n az , ay,ax,gz,gy,gx,extra,t\n\
+                    -9.8,0.5,0.25,3,2,1,zzz,0\n# mid\n\n-9.7,0,0,0,0,0,,0.02\r\n";
+        let rows = read(text).unwrap();
+        assert_eq!(rows.len(), 2);
+        assert_eq!(rows[0].gyro, [1.0, 2.0, 3.0]);
+        assert_eq!(rows[0].accel, [0.25, 0.5, -9.8]);
+        assert_eq!(rows[1].t, 0.02);
+        assert_eq!(rows[1].mag, None);
+        assert_eq!(rows[1].truth, None);
+    }
+
+    #[test]
+    fn errors_name_line_and_column() {
+        let e = read("t,gx,gy,gz,ax,ay\n0,0,0,0,0,0\n").unwrap_err();
+        assert!(matches!(&e, TraceError::MissingColumn { line: 1, column } if column == "az"));
+        assert!(e.to_string().contains("line 1") && e.to_string().contains("'az'"));
+
+        let e = read("t,gx,gy,gz,ax,ay,az\n0,0,0,0,0,0,0\n0.1,0,x,0,0,0,0\n").unwrap_err();
+        assert!(matches!(&e, TraceError::NotANumber { line: 3, column, .. } if column == "gy"));
+
+        let e = read("t,gx,gy,gz,ax,ay,az\n0,0,0,0,0,0,NaN\n").unwrap_err();
+        assert!(matches!(&e, TraceError::NotFinite { line: 2, column, .. } if column == "az"));
+        let e = read("t,gx,gy,gz,ax,ay,az\n0,inf,0,0,0,0,0\n").unwrap_err();
+        assert!(matches!(&e, TraceError::NotFinite { line: 2, column, .. } if column == "gx"));
+
+        let e = read("t,gx,gy,gz,ax,ay,az\n#c\n1,0,0,0,0,0,0\n1,0,0,0,0,0,0\n").unwrap_err();
+        assert!(matches!(e, TraceError::TimeNotIncreasing { line: 4, .. }));
+        assert_eq!(e.column(), Some("t"));
+
+        let e = read("t,gx,gy,gz,ax,ay,az\n0,0,0,0,0,0\n").unwrap_err();
+        assert!(matches!(&e, TraceError::CellCount { line: 2, expected: 7, found: 6, .. }));
+        assert_eq!(e.column(), Some("az"));
+        let e = read("t,gx,gy,gz,ax,ay,az\n0,0,0,0,0,0,0,0\n").unwrap_err();
+        assert!(matches!(e, TraceError::CellCount { line: 2, found: 8, column: None, .. }));
+
+        let e = read("t,gx,gy,gz,ax,ay,az\n0,0,,0,0,0,0\n").unwrap_err();
+        assert!(matches!(&e, TraceError::NotANumber { line: 2, column, .. } if column == "gy"));
+
+        let e = read("t,gx,gy,gz,ax,ay,az,t\n").unwrap_err();
+        assert!(matches!(e, TraceError::DuplicateColumn { line: 1, .. }));
+        assert!(matches!(read("# only\n\n").unwrap_err(), TraceError::NoHeader));
+        let e = read("t,gx,gy,gz,ax,ay,az,mx,mz\n").unwrap_err();
+        assert!(matches!(&e, TraceError::MissingColumn { column, .. } if column == "my"));
+    }
+
+    #[test]
+    fn optional_groups() {
+        let h = "t,gx,gy,gz,ax,ay,az,mx,my,mz,depth,qw,qx,qy,qz\n";
+        let rows =
+            read(&format!("{h}0,0,0,0,0,0,-9.8,1,2,3,4.5,1,0,0,0\n0.1,0,0,0,0,0,-9.8,,,,,,,,\n"))
+                .unwrap();
+        assert_eq!(rows[0].mag, Some([1.0, 2.0, 3.0]));
+        assert_eq!(rows[0].depth, Some(4.5));
+        assert_eq!(rows[0].truth, Some([1.0, 0.0, 0.0, 0.0]));
+        assert_eq!((rows[1].mag, rows[1].depth, rows[1].truth), (None, None, None));
+        let e = read(&format!("{h}0,0,0,0,0,0,-9.8,1,,3,,,,,\n")).unwrap_err();
+        assert!(matches!(&e, TraceError::PartialGroup { line: 2, column } if column == "my"));
+    }
+
+    #[test]
+    fn write_read_round_trip_is_exact() {
+        let cols = TraceColumns { mag: true, depth: true, truth: true };
+        let mut w = TraceWriter::new(Vec::new(), cols).unwrap();
+        let mut rows = Vec::new();
+        let mut x = 0.123_456_79_f32;
+        for k in 0..100 {
+            x = (x * 3.7 + 0.1).fract() - 0.5;
+            let row = TraceRow {
+                t: k as f64 / 50.0,
+                gyro: [x, -x * 1e-7, x * 1e5],
+                accel: [f32::MIN_POSITIVE, -9.806_65, x / 3.0],
+                mag: if k % 3 == 0 { None } else { Some([x, 2.0 * x, 1e-30]) },
+                depth: if k % 2 == 0 { Some(x.abs()) } else { None },
+                truth: Some([1.0 - x * x, x, -x, 0.0]),
+            };
+            w.row(&row).unwrap();
+            if k == 10 {
+                w.comment("a comment\nwith a newline").unwrap();
+            }
+            rows.push(row);
+        }
+        let bytes = w.finish().unwrap();
+        let back = read(std::str::from_utf8(&bytes).unwrap()).unwrap();
+        assert_eq!(back, rows);
+    }
+
+    #[test]
+    fn estimate_round_trip() {
+        let mut w = EstimateWriter::new(Vec::new()).unwrap();
+        let r = EstimateRow {
+            t: 0.02,
+            q: [1.0, 0.0, 1e-3, -2e-4],
+            euler_deg: [0.1, -0.2, 179.9],
+            bias_dps: [1.619, 3.44, -0.004],
+            flags: 0x0101,
+        };
+        w.row(&r).unwrap();
+        let bytes = w.finish().unwrap();
+        let mut rd = EstimateReader::new(&bytes[..]).unwrap();
+        assert_eq!(rd.next_row().unwrap(), Some(r));
+        assert_eq!(rd.next_row().unwrap(), None);
+    }
+}

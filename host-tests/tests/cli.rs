@@ -1,0 +1,252 @@
+//! The `host-tests` binary end to end: simulate → replay → plot, malformed inputs, bad
+//! arguments, `--config` and `--no-init-bias`.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+const BIN: &str = env!("CARGO_BIN_EXE_host-tests");
+
+fn run(args: &[&str]) -> Output {
+    Command::new(BIN).args(args).output().expect("run host-tests")
+}
+
+fn run_env(args: &[&str], key: &str, value: &str) -> Output {
+    Command::new(BIN).args(args).env(key, value).output().expect("run host-tests")
+}
+
+fn stdout(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn p(path: &Path) -> &str {
+    path.to_str().unwrap()
+}
+
+/// Parse "rmse_deg roll R pitch P yaw Y" from replay's stdout.
+fn rmse(out: &str) -> [f64; 3] {
+    let line = out.lines().find(|l| l.starts_with("rmse_deg")).expect("rmse line");
+    let w: Vec<&str> = line.split_whitespace().collect();
+    [w[2].parse().unwrap(), w[4].parse().unwrap(), w[6].parse().unwrap()]
+}
+
+fn simulate(dir: &Path, scenario: &str, duration: &str) -> PathBuf {
+    let trace = dir.join(format!("{scenario}.csv"));
+    let o = run(&["simulate", scenario, "--out", p(&trace), "--duration", duration, "--seed", "1"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    trace
+}
+
+#[test]
+fn simulate_replay_round_trip_has_small_rmse() {
+    let dir = tempfile::tempdir().unwrap();
+    let trace = simulate(dir.path(), "pitch-sine", "30");
+    let text = std::fs::read_to_string(&trace).unwrap();
+    assert!(text.starts_with("t,gx,gy,gz,ax,ay,az,qw,qx,qy,qz\n"));
+    let data_rows = text.lines().filter(|l| !l.starts_with('#')).count() - 1;
+    assert_eq!(data_rows, 1500);
+
+    for filter in ["ekf", "ukf", "ssukf", "cf"] {
+        let est = dir.path().join(format!("est-{filter}.csv"));
+        let o = run(&["replay", p(&trace), "--out", p(&est), "--filter", filter]);
+        assert!(o.status.success(), "{filter}: {}", stderr(&o));
+        let out = stdout(&o);
+        assert!(out.contains("rows/s"), "{out}");
+        let r = rmse(&out);
+        // 20 s of a 10° pitch sine after the 10 s window: tilt under 0.5° (1.5° for the
+        // complementary filter's slow 1e-4 gain), yaw under 2°.
+        let tilt = if filter == "cf" { 1.5 } else { 0.5 };
+        assert!(r[0] < tilt && r[1] < tilt && r[2] < 2.0, "{filter}: {r:?}");
+        assert!(out.contains("over 1000 rows"), "{out}");
+        let est_text = std::fs::read_to_string(&est).unwrap();
+        let mut lines = est_text.lines();
+        assert_eq!(
+            lines.next().unwrap(),
+            "t,qw,qx,qy,qz,roll,pitch,yaw,bias_x,bias_y,bias_z,flags"
+        );
+        assert_eq!(lines.count(), 1500, "one estimate row per input row");
+    }
+    // The gyro-only baseline runs too (and is worse).
+    let est = dir.path().join("est-gyro.csv");
+    let o = run(&["replay", p(&trace), "--out", p(&est), "--filter", "gyro"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
+/// Replay a malformed trace: non-zero exit, one-line error naming `line` and `column`, and
+/// no output file (nor a temporary one) left behind.
+fn expect_trace_error(body: &str, line: usize, column: &str) {
+    let dir = tempfile::tempdir().unwrap();
+    let trace = dir.path().join("bad.csv");
+    std::fs::write(&trace, body).unwrap();
+    let est = dir.path().join("est.csv");
+    let o = run(&["replay", p(&trace), "--out", p(&est)]);
+    assert!(!o.status.success(), "{body}");
+    let err = stderr(&o);
+    assert_eq!(err.trim_end().lines().count(), 1, "one line: {err}");
+    assert!(err.starts_with("error: "), "{err}");
+    assert!(err.contains(&format!("line {line}")), "{err}");
+    assert!(err.contains(&format!("column '{column}'")), "{err}");
+    assert!(!est.exists(), "partial output left");
+    let left: Vec<_> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().path()).collect();
+    assert_eq!(left, vec![trace], "temporary file left");
+}
+
+#[test]
+fn malformed_inputs_are_named_and_leave_no_output() {
+    // Many good rows first, so that output has been written when the error is found.
+    let mut good = String::from("t,gx,gy,gz,ax,ay,az\n");
+    for k in 0..5000 {
+        good.push_str(&format!("{},0.01,0.02,0.0,0.0,0.0,-9.81\n", k as f64 * 0.02));
+    }
+    // Line numbers: header is 1, row k is k + 2.
+    expect_trace_error("t,gx,gy,gz,ax,az\n0,0,0,0,0,-9.8\n", 1, "ay");
+    expect_trace_error(&format!("{good}100.0,0.01,abc,0,0,0,-9.81\n"), 5002, "gy");
+    expect_trace_error(&format!("{good}100.0,0.01,0,0,0,NaN,-9.81\n"), 5002, "ay");
+    expect_trace_error(&format!("{good}100.0,0.01,0,0,0,0,inf\n"), 5002, "az");
+    expect_trace_error(&format!("{good}# comment\n99.98,0.01,0,0,0,0,-9.81\n"), 5003, "t");
+    expect_trace_error(&format!("{good}100.0,0.01,0,0,0,0\n"), 5002, "az");
+    expect_trace_error("t,gx,gy,gz,ax,ay,az,qw,qx,qy\n", 1, "qz");
+}
+
+#[test]
+fn failed_replay_keeps_an_existing_output() {
+    let dir = tempfile::tempdir().unwrap();
+    let trace = dir.path().join("bad.csv");
+    std::fs::write(&trace, "t,gx,gy,gz,ax,ay,az\n0,0,0,0,0,0,x\n").unwrap();
+    let est = dir.path().join("est.csv");
+    std::fs::write(&est, "previous\n").unwrap();
+    let o = run(&["replay", p(&trace), "--out", p(&est)]);
+    assert!(!o.status.success());
+    assert_eq!(std::fs::read_to_string(&est).unwrap(), "previous\n");
+}
+
+#[test]
+fn bad_arguments_give_one_line_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("x.csv");
+    let missing = dir.path().join("missing.csv");
+    for args in [
+        vec!["simulate", "no-such-scenario", "--out", p(&out)],
+        vec!["simulate", "pitch-sine", "--out", p(&out), "--rate", "0"],
+        vec!["simulate", "pitch-sine", "--out", p(&out), "--duration", "-1"],
+        vec!["simulate", "pitch-sine"],
+        vec!["replay", p(&missing), "--out", p(&out)],
+        vec!["replay", p(&missing), "--out", p(&out), "--filter", "kalman"],
+        vec!["frobnicate"],
+    ] {
+        let o = run(&args);
+        assert!(!o.status.success(), "{args:?}");
+        let err = stderr(&o);
+        assert_eq!(err.trim_end().lines().count(), 1, "{args:?}: {err}");
+        assert!(err.starts_with("error: "), "{err}");
+        assert!(!out.exists());
+    }
+}
+
+#[test]
+fn config_file_overrides_and_rejects_unknown_keys() {
+    let dir = tempfile::tempdir().unwrap();
+    let trace = simulate(dir.path(), "pitch-ramp", "30");
+    let est = dir.path().join("est.csv");
+    let cfg = dir.path().join("settings.toml");
+    // A 5 s window: RMSE now counts rows from t = 5 s.
+    std::fs::write(&cfg, "[init]\nwindow_s = 5.0\n[ekf]\naccel_var_scale = 20\n").unwrap();
+    let o = run(&["replay", p(&trace), "--out", p(&est), "--config", p(&cfg)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stdout(&o).contains("over 1250 rows"), "{}", stdout(&o));
+
+    std::fs::write(&cfg, "[ekf]\naccel_var_scal = 20\n").unwrap();
+    let est2 = dir.path().join("est2.csv");
+    let o = run(&["replay", p(&trace), "--out", p(&est2), "--config", p(&cfg)]);
+    assert!(!o.status.success());
+    let err = stderr(&o);
+    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+    assert!(err.contains("accel_var_scal"), "{err}");
+    assert!(!est2.exists());
+}
+
+/// The estimate file's bias_z (°/s) on the first row after the initialisation window.
+fn bias_z_after_init(est: &Path) -> f64 {
+    let text = std::fs::read_to_string(est).unwrap();
+    let row = text
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect::<Vec<_>>())
+        .find(|c| c[0].parse::<f64>().unwrap() >= 10.5)
+        .unwrap();
+    row[10].parse().unwrap()
+}
+
+#[test]
+fn no_init_bias_uses_the_configured_bias() {
+    let dir = tempfile::tempdir().unwrap();
+    let trace = simulate(dir.path(), "bias-off", "20");
+    assert!(std::fs::read_to_string(&trace).unwrap().contains("--no-init-bias"));
+    let est = dir.path().join("est.csv");
+    // Estimated from the still window: the true z bias −0.004 + 0.05 °/s, within noise.
+    let o = run(&["replay", p(&trace), "--out", p(&est)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let b = bias_z_after_init(&est);
+    assert!((b - 0.046).abs() < 0.01, "{b}");
+    // Not estimated: the configured default (−0.0042 °/s), 0.05 °/s off the truth.
+    let o = run(&["replay", p(&trace), "--out", p(&est), "--no-init-bias"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let b = bias_z_after_init(&est);
+    assert!((b + 0.0042).abs() < 0.002, "{b}");
+}
+
+#[test]
+fn plot_writes_a_png_with_and_without_fonts() {
+    let dir = tempfile::tempdir().unwrap();
+    let trace = simulate(dir.path(), "yaw-sine", "20");
+    let est = dir.path().join("est.csv");
+    let o = run(&["replay", p(&trace), "--out", p(&est)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    for (font, name) in [("", "fig.png"), ("none", "fig-notext.png")] {
+        let png = dir.path().join(name);
+        let o = run_env(&["plot", p(&trace), p(&est), "--out", p(&png)], "HOST_TESTS_FONT", font);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let bytes = std::fs::read(&png).unwrap();
+        assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n");
+        assert!(bytes.len() > 10_000);
+    }
+    // Mismatched files: an error and no image.
+    let short = simulate(dir.path(), "pitch-sine", "12");
+    let png = dir.path().join("bad.png");
+    let o = run(&["plot", p(&short), p(&est), "--out", p(&png)]);
+    assert!(!o.status.success());
+    assert_eq!(stderr(&o).trim_end().lines().count(), 1);
+    assert!(!png.exists());
+}
+
+#[test]
+fn simulate_is_deterministic_per_seed() {
+    let dir = tempfile::tempdir().unwrap();
+    let a = dir.path().join("a.csv");
+    let b = dir.path().join("b.csv");
+    let c = dir.path().join("c.csv");
+    for (out, seed) in [(&a, "5"), (&b, "5"), (&c, "6")] {
+        let o = run(&[
+            "simulate",
+            "coupled",
+            "--out",
+            p(out),
+            "--duration",
+            "12",
+            "--seed",
+            seed,
+            "--rate",
+            "100",
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    let (a, b, c) =
+        (std::fs::read(a).unwrap(), std::fs::read(b).unwrap(), std::fs::read(c).unwrap());
+    assert_eq!(a, b);
+    assert_ne!(a, c);
+    let rows = String::from_utf8(a).unwrap().lines().filter(|l| !l.starts_with('#')).count() - 1;
+    assert_eq!(rows, 1200);
+}

@@ -1,0 +1,86 @@
+//! Facts about the STEVAL-MKI062V2 "iNEMO" V2 board, from ST's board support code and the
+//! parts' datasheets. Every pin, address and constant of the board lives here.
+
+/// I²C2 clock on PB10 (SCL) and data on PB11 (SDA). Shared by the LSM303DLH, the LPS001DL
+/// barometer and the STLM75 thermometer.
+pub const I2C_PINS: &str = "I2C2: SCL PB10, SDA PB11";
+/// I²C bus clock, Hz (fast mode; every device on the bus supports 400 kHz).
+pub const I2C_FREQUENCY_HZ: u32 = 400_000;
+/// LSM303DLH accelerometer 7-bit I²C address (SA0_A pulled high on the board).
+pub const LSM303DLH_ACCEL_ADDR: u8 = 0x19;
+/// LSM303DLH magnetometer 7-bit I²C address (fixed).
+pub const LSM303DLH_MAG_ADDR: u8 = 0x1E;
+
+/// ADC1 channel of the LPR430AL X (roll) rate output, 4× amplified: PC0.
+pub const ADC_CH_GYRO_X: u8 = 10;
+/// ADC1 channel of the LPR430AL Y (pitch) rate output, 4× amplified: PC1.
+pub const ADC_CH_GYRO_Y: u8 = 11;
+/// ADC1 channel of the LPR430AL reference voltage: PC2.
+pub const ADC_CH_GYRO_XY_REF: u8 = 12;
+/// ADC1 channel of the LY330ALH Z (yaw) rate output: PC4.
+pub const ADC_CH_GYRO_Z: u8 = 14;
+/// ADC1 channel of the LY330ALH reference voltage: PC5.
+pub const ADC_CH_GYRO_Z_REF: u8 = 15;
+/// ADC1 channel of the external depth (pressure) sensor: PA1 (ADC123_IN1). PA1 is not used by
+/// ST's board code and is free on the board's extension connector; the SICK PBT's 0–10 V or
+/// 4–20 mA output must be scaled into 0–3.3 V externally (divider or shunt).
+pub const ADC_CH_DEPTH: u8 = 1;
+
+/// LPR430AL sensitivity on the 4× outputs, V per °/s (3.33 mV/dps).
+pub const LPR430AL_SENSITIVITY_V_PER_DPS: f32 = 3.33e-3;
+/// LY330ALH sensitivity, V per °/s (3.752 mV/dps).
+pub const LY330ALH_SENSITIVITY_V_PER_DPS: f32 = 3.752e-3;
+/// Full scale of both gyros, °/s.
+pub const GYRO_RANGE_DPS: f32 = 300.0;
+/// ADC reference (VDDA = VREF+ = 3.3 V on the board), V.
+pub const ADC_VREF: f32 = 3.3;
+/// ADC full-scale count (12 bit).
+pub const ADC_FULL_SCALE: u16 = 4095;
+
+/// Gyro power-down pins, driven low to run: PB5 (LPR430AL), PB15 (LY330ALH).
+pub const GYRO_POWER_DOWN_PINS: &str = "PB5 (LPR430AL PD), PB15 (LY330ALH PD): low";
+/// Gyro self-test pins, driven low for normal operation: PB1 (LPR430AL ST), PB14 (LY330ALH ST).
+pub const GYRO_SELF_TEST_PINS: &str = "PB1 (LPR430AL ST), PB14 (LY330ALH ST): low";
+/// Status LED: PB9, active high.
+pub const LED_PIN: &str = "PB9, active high";
+
+/// Output USART: USART2 on PA2 (TX) and PA3 (RX). USART3's default pins are I²C2's
+/// (PB10/PB11) and PA9 (USART1 TX) is the LPS001DL's interrupt line, so USART2 is the one
+/// free port.
+pub const USART: &str = "USART2: TX PA2, RX PA3";
+/// Output baud rate, bit/s.
+pub const USART_BAUD: u32 = 115_200;
+
+/// External crystal, Hz (8 MHz HSE; the firmware falls back to the internal HSI if it fails).
+pub const HSE_HZ: u32 = 8_000_000;
+/// System clock, Hz (PLL from HSE; 64 MHz when running from HSI/2 × 16).
+pub const SYSCLK_HZ: u32 = 72_000_000;
+
+use ekf_core::axis_map::AxisMap;
+
+/// Default accelerometer and magnetometer axis map (LSM303DLH axes → body FRD).
+///
+/// The source: "the IMU frame and the vehicle's NED body frame differ: +y and +z point the
+/// other way" — the chip's axes are x forward, y to port, z up (a flat board face up reads
+/// +1 g on z). So `body = (raw.x, −raw.y, −raw.z)`, a 180° rotation about x. (ST's own
+/// firmware feeds its AHRS `[Y, X, −Z]` for its board orientation.) Verify with the bench
+/// procedure in `docs/operating.md` before trusting it on a new mounting.
+pub const ACCEL_AXES: AxisMap = match AxisMap::new([0, 1, 2], [1, -1, -1]) {
+    Ok(m) => m,
+    Err(_) => AxisMap::IDENTITY,
+};
+
+/// Default magnetometer axis map: the LSM303DLH's magnetometer axes are those of its
+/// accelerometer, so the same map.
+pub const MAG_AXES: AxisMap = ACCEL_AXES;
+
+/// Default gyro axis map (LPR430AL X, Y and LY330ALH Z outputs → body FRD).
+///
+/// As the accelerometer, except that "the gyro's y axis does not match the board's y axis"
+/// (the source; ST's firmware also negates one gyro channel): `body = (raw.x, raw.y, −raw.z)`.
+/// That is a reflection, which is what the analog outputs' sign conventions amount to. Verify
+/// every sign with the bench procedure before use.
+pub const GYRO_AXES: AxisMap = match AxisMap::new([0, 1, 2], [1, 1, -1]) {
+    Ok(m) => m,
+    Err(_) => AxisMap::IDENTITY,
+};

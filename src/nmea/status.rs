@@ -1,0 +1,86 @@
+//! The status word of `$PINAH`.
+
+use core::ops::{BitOr, BitOrAssign};
+
+use ekf_core::Flags;
+
+/// Status word sent in `$PINAH`'s status field: bits 0–15 are the estimator's
+/// [`ekf_core::Flags`] of the cycle, bits 16–19 are board-level conditions (the constants
+/// below). Only bits 0–19 are transmitted (5 hex digits); bits 20–31 are reserved and dropped.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct Status(pub u32);
+
+impl Status {
+    /// No bit set.
+    pub const NONE: Status = Status(0);
+    /// Bit 16: an I²C transfer with the LSM303DLH failed this cycle (the accelerometer or
+    /// magnetometer sample is missing).
+    pub const I2C_FAULT: Status = Status(1 << 16);
+    /// Bit 17: the ADC delivered no frame since the previous cycle, or dropped frames (DMA
+    /// overrun, or [`crate::adc::AdcMean::dropped`] > 0).
+    pub const ADC_FAULT: Status = Status(1 << 17);
+    /// Bit 18: a gyro channel touched an ADC rail during the cycle
+    /// ([`crate::adc::GyroReading::axis_saturated`] from a rail).
+    pub const GYRO_RAIL: Status = Status(1 << 18);
+    /// Bit 19: the depth channel touched an ADC rail during the cycle
+    /// ([`crate::adc::DepthReading::at_rail`]): the depth is not trusted.
+    pub const DEPTH_RAIL: Status = Status(1 << 19);
+    /// The bits `$PINAH` transmits (0–19).
+    pub const TRANSMITTED: u32 = 0x000F_FFFF;
+
+    /// The status of an estimator update: its flags in bits 0–15, no board bit.
+    #[inline]
+    pub const fn from_flags(flags: Flags) -> Status {
+        Status(flags.bits() as u32)
+    }
+    /// The estimator's flags (bits 0–15).
+    #[inline]
+    pub const fn flags(self) -> Flags {
+        Flags(self.0 as u16)
+    }
+    /// True when every bit of `other` is set.
+    #[inline]
+    pub const fn contains(self, other: Status) -> bool {
+        self.0 & other.0 == other.0
+    }
+    /// Set the bits of `other`.
+    #[inline]
+    pub fn insert(&mut self, other: Status) {
+        self.0 |= other.0;
+    }
+}
+
+impl From<Flags> for Status {
+    fn from(flags: Flags) -> Status {
+        Status::from_flags(flags)
+    }
+}
+impl BitOr for Status {
+    type Output = Status;
+    fn bitor(self, o: Status) -> Status {
+        Status(self.0 | o.0)
+    }
+}
+impl BitOrAssign for Status {
+    fn bitor_assign(&mut self, o: Status) {
+        self.0 |= o.0;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn board_bits_above_the_estimators() {
+        let mut s = Status::from(Flags::AT_REST | Flags::ACCEL_USED);
+        s |= Status::I2C_FAULT | Status::DEPTH_RAIL;
+        assert_eq!(s.0, 0x0009_0300);
+        assert_eq!(s.flags(), Flags::AT_REST | Flags::ACCEL_USED);
+        assert!(s.contains(Status::I2C_FAULT) && !s.contains(Status::ADC_FAULT));
+        let board = Status::I2C_FAULT | Status::ADC_FAULT | Status::GYRO_RAIL | Status::DEPTH_RAIL;
+        assert_eq!(board.0 & 0xFFFF, 0);
+        assert_eq!(board.0 & !Status::TRANSMITTED, 0);
+        assert_eq!(board.0.count_ones(), 4);
+    }
+}
