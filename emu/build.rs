@@ -20,9 +20,8 @@ fn main() {
     let out = PathBuf::from(env::var("OUT_DIR").expect("OUT_DIR"));
     let manifest = PathBuf::from(env::var("CARGO_MANIFEST_DIR").expect("manifest dir"));
     println!("cargo:rerun-if-env-changed=EKF_EMU_TRACE");
-    let trace = env::var("EKF_EMU_TRACE")
-        .map(PathBuf::from)
-        .unwrap_or_else(|_| manifest.join("trace.csv"));
+    let trace =
+        env::var("EKF_EMU_TRACE").map(PathBuf::from).unwrap_or_else(|_| manifest.join("trace.csv"));
     println!("cargo:rerun-if-changed={}", trace.display());
     let text = fs::read_to_string(&trace)
         .unwrap_or_else(|e| panic!("cannot read trace {}: {e}", trace.display()));
@@ -47,7 +46,8 @@ fn pack(text: &str) -> Vec<u8> {
     let names: Vec<&str> = header.split(',').map(str::trim).collect();
     let col = |n: &str| names.iter().position(|h| *h == n);
     let need = |n: &str| col(n).unwrap_or_else(|| panic!("trace lacks column {n}"));
-    let idx: Vec<usize> = ["t", "gx", "gy", "gz", "ax", "ay", "az"].iter().map(|n| need(n)).collect();
+    let idx: Vec<usize> =
+        ["t", "gx", "gy", "gz", "ax", "ay", "az"].iter().map(|n| need(n)).collect();
     let depth_col = col("depth");
 
     let s = PipelineSettings::default();
@@ -60,9 +60,10 @@ fn pack(text: &str) -> Vec<u8> {
     for (i, line) in lines {
         let cells: Vec<&str> = line.split(',').map(str::trim).collect();
         let num = |c: usize| -> f64 {
-            cells.get(c).and_then(|s| s.parse().ok()).unwrap_or_else(|| {
-                panic!("trace line {}: column {} unreadable", i + 1, names[c])
-            })
+            cells
+                .get(c)
+                .and_then(|s| s.parse().ok())
+                .unwrap_or_else(|| panic!("trace line {}: column {} unreadable", i + 1, names[c]))
         };
         let v: Vec<f64> = idx.iter().map(|&c| num(c)).collect();
         let dt = prev_t.map(|p| v[0] - p).unwrap_or(0.02) as f32;

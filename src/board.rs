@@ -84,3 +84,11 @@ pub const GYRO_AXES: AxisMap = match AxisMap::new([0, 1, 2], [1, 1, -1]) {
     Ok(m) => m,
     Err(_) => AxisMap::IDENTITY,
 };
+
+/// Flash address of settings page A (the second-to-last 2 KiB page of the STM32F103RE's
+/// 512 KiB; `memory.x` gives code the first 508 KiB only).
+pub const SETTINGS_PAGE_A: u32 = 0x0807_F000;
+/// Flash address of settings page B (the last 2 KiB page).
+pub const SETTINGS_PAGE_B: u32 = 0x0807_F800;
+/// Flash page size of the STM32F103RE (high density), bytes.
+pub const FLASH_PAGE_SIZE: usize = 2048;

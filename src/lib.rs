@@ -10,6 +10,9 @@
 
 pub mod adc;
 pub mod board;
+pub mod command;
 pub mod lsm303dlh;
 pub mod nmea;
+pub mod persist;
 pub mod pipeline;
+pub mod registry;

@@ -176,6 +176,9 @@ impl Pipeline {
         // Gyro (sensor axes, rad/s) and depth from the averaged ADC scan.
         let (gyro_raw, depth) = match inputs.adc {
             Some(mean) => {
+                if mean.dropped > 0 {
+                    status.insert(Status::ADC_FAULT);
+                }
                 let g = self.settings.gyro.rates(&mean);
                 if g.saturated {
                     status.insert(Status::GYRO_RAIL);
@@ -225,6 +228,47 @@ impl Pipeline {
         }
         self.cycle = self.cycle.wrapping_add(1);
         Step { status, attitude, depth_m: depth, sentences }
+    }
+
+    /// The conditioned sample (rad/s, m/s², µT, body FRD — what the estimator is fed) that
+    /// the next [`Pipeline::step`] with the same `inputs` computes. Works on a copy of the
+    /// conditioner, so nothing changes; call it before `step`. For the raw streaming mode
+    /// (`crate::command`).
+    pub fn conditioned_sample(&self, inputs: &Inputs) -> ekf_core::ImuSample {
+        let nan = Vec3::new(f32::NAN, f32::NAN, f32::NAN);
+        let gyro_raw =
+            inputs.adc.map(|mean| self.settings.gyro.rates(&mean).rate_vec3()).unwrap_or(nan);
+        let accel_raw = inputs.accel_g.map(|a| Vec3::from_array(a) * GRAVITY).unwrap_or(nan);
+        let mut conditioner = self.conditioner;
+        let (gyro, accel) = conditioner.condition(inputs.dt, gyro_raw, accel_raw);
+        let mut sample = ekf_core::ImuSample::new(inputs.dt, gyro, accel);
+        sample.mag = inputs.mag_ut.map(|m| conditioner.condition_mag(Vec3::from_array(m)));
+        sample
+    }
+
+    /// Replace the settings at run time (commands), keeping the attitude.
+    ///
+    /// The conditioner is rebuilt when the conditioning settings change (the lever-arm
+    /// history restarts). The estimator is rebuilt when its settings or the static gyro
+    /// offset change: once initialised it restarts from the current attitude and gyro bias
+    /// (the bias shifted by the change of the offset, so the corrected rate is unchanged; the
+    /// covariance restarts from the initial sigmas); during the initialisation window the
+    /// window restarts. Output settings (rate, sentences) take effect at the next cycle. The
+    /// filter rate is only recorded here: the caller changes the cycle period.
+    pub fn apply_settings(&mut self, settings: PipelineSettings) {
+        let old = self.settings;
+        if settings.conditioning != old.conditioning {
+            self.conditioner = Conditioner::new(settings.conditioning);
+        }
+        let shift = settings.conditioning.gyro_offset - old.conditioning.gyro_offset;
+        if settings.filter != old.filter || shift != Vec3::ZERO {
+            let mut ekf = Ekf::new(settings.filter);
+            if self.ekf.is_initialised() {
+                ekf.set_attitude(self.ekf.attitude(), self.ekf.gyro_bias() - shift);
+            }
+            self.ekf = ekf;
+        }
+        self.settings = settings;
     }
 }
 
@@ -287,8 +331,7 @@ mod tests {
 
     #[test]
     fn output_rate_divides_the_filter_rate_and_both_sentences_verify() {
-        let mut s = PipelineSettings::default();
-        s.output_rate_hz = 5;
+        let s = PipelineSettings { output_rate_hz: 5, ..PipelineSettings::default() };
         let mut p = Pipeline::new(s);
         let mut outputs = 0;
         for _ in 0..100 {
@@ -315,7 +358,12 @@ mod tests {
         let mut s = PipelineSettings::default();
         s.filter.init.window_s = 0.0;
         let mut p = Pipeline::new(s);
-        p.step(&Inputs { dt: 0.02, adc: Some(still_adc([0.0; 3])), accel_g: Some(FLAT), ..Inputs::default() });
+        p.step(&Inputs {
+            dt: 0.02,
+            adc: Some(still_adc([0.0; 3])),
+            accel_g: Some(FLAT),
+            ..Inputs::default()
+        });
         // 1 s of a 10 °/s turn about the body's z (down: the yaw gyro's output falls, with the
         // default map) without the accelerometer.
         let mut status = Status::NONE;
@@ -341,7 +389,8 @@ mod tests {
     #[test]
     fn depth_comes_from_the_depth_channel_and_a_missing_adc_is_flagged() {
         let mut p = Pipeline::new(PipelineSettings::default());
-        let step = p.step(&Inputs { dt: 0.02, adc: Some(still_adc([0.0; 3])), ..Inputs::default() });
+        let step =
+            p.step(&Inputs { dt: 0.02, adc: Some(still_adc([0.0; 3])), ..Inputs::default() });
         let d = PipelineSettings::default().depth;
         let expect = d.depth_m(counts(1.0) / 4095.0 * 3.3);
         assert!((step.depth_m.unwrap() - expect).abs() < 1e-3);

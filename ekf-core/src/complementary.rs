@@ -102,16 +102,14 @@ impl AttitudeFilter for Complementary {
         };
         let mut flags = c.flags;
         if let Some(init) = self.init.as_mut() {
-            return match init::feed(init, &mut self.gate, &c) {
+            match init::feed(init, &mut self.gate, &c) {
                 InitStep::Pending(q) => {
                     self.q = q;
-                    flags | Flags::INITIALISING
+                    return flags | Flags::INITIALISING;
                 }
-                InitStep::Done(q, b) => {
-                    self.set_attitude(q, b);
-                    flags
-                }
-            };
+                // The window's last sample still moves the state (below).
+                InitStep::Done(q, b) => self.set_attitude(q, b),
+            }
         }
         if let Some(g) = c.gyro {
             let w = g - self.bias;

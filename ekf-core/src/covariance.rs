@@ -173,7 +173,16 @@ impl Cov6 {
         self.m[i][i] += v;
     }
 
-    /// Health check: every element finite, diagonal in `(0, max_diag[i]]`, each off-diagonal
+    /// Cheap health check, run every cycle: every diagonal element finite and in
+    /// `(0, max_diag[i]]`. (Symmetry holds by construction: every write is mirrored.)
+    pub fn diagonal_is_healthy(&self, max_diag: &[f32; N]) -> bool {
+        (0..N).all(|i| {
+            let d = self.m[i][i];
+            d.is_finite() && d > 0.0 && d <= max_diag[i]
+        })
+    }
+
+    /// Full health check: every element finite, diagonal in `(0, max_diag[i]]`, each off-diagonal
     /// within the Cauchy–Schwarz bound `P_il² ≤ P_ii·P_ll` (a necessary condition for
     /// positive semi-definiteness), and symmetric. Returns false when broken.
     pub fn is_healthy(&self, max_diag: &[f32; N]) -> bool {

@@ -32,6 +32,10 @@ const MAX_BIAS_VAR: f32 = 1.0;
 /// window's average cannot know (turn-on drift, the window's own imperfect stillness).
 const BIAS_VAR_FLOOR: f32 = 1.218e-9;
 
+/// Cycles between full covariance health checks (the Cauchy–Schwarz bounds of every
+/// off-diagonal element: 15 products); once a second at 50 Hz.
+pub const FULL_HEALTH_CHECK_EVERY: u32 = 50;
+
 /// The quaternion EKF. See the module documentation.
 #[derive(Clone, Debug)]
 pub struct Ekf {
@@ -49,6 +53,8 @@ pub struct Ekf {
     /// Yaw moved by the magnetometer during the current block, rad.
     external_yaw: f32,
     last_flags: Flags,
+    /// Cycles since start (wrapping), for the periodic full health check.
+    cycle: u32,
 }
 
 impl Ekf {
@@ -66,6 +72,7 @@ impl Ekf {
             pending_yaw: 0.0,
             external_yaw: 0.0,
             last_flags: Flags::INITIALISING,
+            cycle: 0,
         }
     }
 
@@ -118,11 +125,12 @@ impl Ekf {
         let s = &self.settings;
         if let Some(g) = c.gyro {
             let w = g - self.bias;
-            self.q = (self.q * Quaternion::from_rotation_vector(w * c.dt_rate)).normalized();
+            // Exp is a unit quaternion, so the product keeps |q| = 1 to rounding; the one
+            // normalisation of the cycle is at its end.
+            self.q = self.q * Quaternion::from_rotation_vector(w * c.dt_rate);
             if s.ekf.yaw_drift_rate != 0.0 {
-                let dz = -s.ekf.yaw_drift_rate * c.dt_rate;
-                self.q = (Quaternion::from_small_rotation(Vec3::new(0.0, 0.0, dz)) * self.q)
-                    .normalized();
+                let half = -0.5 * s.ekf.yaw_drift_rate * c.dt_rate;
+                self.q = self.q.pre_rotate_z(1.0, half);
             }
         }
         let r = self.q.to_rotation_matrix();
@@ -171,8 +179,8 @@ impl Ekf {
         frozen[2] = self.settings.ekf.yaw_split;
         let dx = self.p.update_tilt(&t, frozen);
         let q_pred = self.q;
-        let dq = Quaternion::from_small_rotation(Vec3::new(dx[0], dx[1], dx[2]));
-        self.q = (dq * self.q).normalized();
+        // (1, δθ/2) ⊗ q, not normalised: only the direction matters until the cycle's end.
+        self.q = self.q.pre_rotate_small(Vec3::new(dx[0], dx[1], dx[2]));
         self.bias += Vec3::new(dx[3], dx[4], dx[5]);
         if self.settings.ekf.yaw_split {
             self.restore_yaw(q_pred);
@@ -181,23 +189,27 @@ impl Ekf {
         flags
     }
 
-    /// Yaw-split: rotate about NED z so that the yaw equals that of `q_pred` again.
+    /// Yaw-split: rotate about NED z so that the yaw equals that of `q_pred` again. Works on
+    /// quaternions of any norm (homogeneous formulas); the result is normalised at the end of
+    /// the cycle.
     fn restore_yaw(&mut self, q_pred: Quaternion) {
-        // Heading vectors (cos ψ, sin ψ) up to scale, from the first column of R.
-        let heading =
-            |q: Quaternion| (1.0 - 2.0 * (q.y * q.y + q.z * q.z), 2.0 * (q.x * q.y + q.w * q.z));
+        // Heading vectors (cos ψ, sin ψ) up to scale: the first column of R, in homogeneous
+        // form (R₀₀ = w² + x² − y² − z², R₁₀ = 2(xy + wz)).
+        let heading = |q: Quaternion| {
+            (q.w * q.w + q.x * q.x - q.y * q.y - q.z * q.z, 2.0 * (q.x * q.y + q.w * q.z))
+        };
         let (pc, ps) = heading(q_pred);
         let (cc, cs) = heading(self.q);
-        // Rotation from the corrected heading to the predicted one.
+        // Rotation from the corrected heading to the predicted one: (cos Δ, sin Δ)·n.
         let c = cc * pc + cs * ps;
         let s = cc * ps - cs * pc;
         let n = mathf::sqrt(c * c + s * s);
         if !(n > 1e-12) {
             return; // ±90° pitch: yaw undefined, nothing to restore.
         }
-        let dq = Quaternion::new(n + c, 0.0, 0.0, s);
-        if let Some(dq) = dq.try_normalized() {
-            self.q = (dq * self.q).normalized();
+        // (cos Δ/2, 0, 0, sin Δ/2) ∝ (n + c, 0, 0, s); n + c = 0 only for Δ = π exactly.
+        if n + c > 0.0 {
+            self.q = self.q.pre_rotate_z(n + c, s);
         }
     }
 
@@ -208,6 +220,7 @@ impl Ekf {
         if !(m.is_finite() && n > 0.0) || mathf::abs(n / ms.field_ut - 1.0) > ms.norm_tolerance {
             return Flags::MAG_REJECTED;
         }
+        self.q = self.q.normalized(); // the correction left it unnormalised
         let mn = self.q.rotate(m);
         let h = mathf::sqrt(mn.x * mn.x + mn.y * mn.y);
         let dip = mathf::atan2(mn.z, h);
@@ -266,19 +279,30 @@ impl Ekf {
         flags
     }
 
-    /// Health checks: reset a broken quaternion or covariance and flag it.
+    /// Health checks, and the cycle's one normalisation of `q`: reset a broken quaternion,
+    /// bias or covariance to its last good or initial value and flag it. The covariance's
+    /// diagonal is checked every cycle, its off-diagonal bounds every
+    /// [`FULL_HEALTH_CHECK_EVERY`] cycles and whenever the diagonal fails.
     fn health(&mut self, q_before: Quaternion, bias_before: Vec3) -> Flags {
         let mut flags = Flags::NONE;
-        if !self.q.is_finite() || mathf::abs(self.q.norm_sq() - 1.0) > 1e-3 {
-            self.q = q_before.normalized();
-            flags |= Flags::HEALTH_RESET;
+        // The cycle's steps scale q freely (yaw restore by up to ~2); only a non-finite or
+        // vanishing q is broken.
+        match self.q.try_normalized() {
+            Some(q) => self.q = q,
+            None => {
+                self.q = q_before.normalized();
+                flags |= Flags::HEALTH_RESET;
+            }
         }
         if !self.bias.is_finite() || self.bias.max_abs() > self.settings.limits.gyro_range {
             self.bias = if bias_before.is_finite() { bias_before } else { Vec3::ZERO };
             flags |= Flags::HEALTH_RESET;
         }
         let max = [MAX_ATT_VAR, MAX_ATT_VAR, MAX_ATT_VAR, MAX_BIAS_VAR, MAX_BIAS_VAR, MAX_BIAS_VAR];
-        if !self.p.is_healthy(&max) {
+        self.cycle = self.cycle.wrapping_add(1);
+        let full = self.cycle % FULL_HEALTH_CHECK_EVERY == 0;
+        let healthy = self.p.diagonal_is_healthy(&max) && (!full || self.p.is_healthy(&max));
+        if !healthy {
             self.p = Self::initial_cov(&self.settings);
             flags |= Flags::HEALTH_RESET;
         }
@@ -303,7 +327,8 @@ impl AttitudeFilter for Ekf {
             match init::feed(init, &mut self.gate, &c) {
                 InitStep::Pending(q) => {
                     self.q = q;
-                    flags |= Flags::INITIALISING;
+                    self.last_flags = flags | Flags::INITIALISING;
+                    return self.last_flags;
                 }
                 InitStep::Done(q, b) => {
                     let var = init.bias_variance(&self.settings.noise);
@@ -314,10 +339,10 @@ impl AttitudeFilter for Ekf {
                             self.p.m[3 + i][3 + i] = v[i] + BIAS_VAR_FLOOR;
                         }
                     }
+                    // The window's last sample still moves the state (below), so a window
+                    // that ends as motion starts loses nothing.
                 }
             }
-            self.last_flags = flags;
-            return flags;
         }
 
         let (q_before, bias_before) = (self.q, self.bias);

@@ -25,19 +25,19 @@ impl Euler {
     }
 
     /// Euler angles of an attitude quaternion (digest formulas, pitch through `atan2`), finite for
-    /// any finite quaternion, including at ±90° pitch.
+    /// any finite quaternion, including at ±90° pitch. The formulas are written homogeneously
+    /// (`1 − 2(x² + y²)` as `w² − x² − y² + z²`, ...), so `q` need not be normalised.
     pub fn from_quaternion(q: Quaternion) -> Self {
         let Quaternion { w, x, y, z } = q;
+        let (ww, xx, yy, zz) = (w * w, x * x, y * y, z * z);
+        let r00 = ww + xx - yy - zz;
+        let r10 = 2.0 * (x * y + w * z);
         Euler {
-            roll: mathf::atan2(2.0 * (y * z + w * x), 1.0 - 2.0 * (x * x + y * y)),
+            roll: mathf::atan2(2.0 * (y * z + w * x), ww - xx - yy + zz),
             // asin(2(wy − xz)) written as atan2 with cos θ = |first column of R projected on
             // the horizontal|: identical in exact arithmetic, well conditioned near ±90°.
-            pitch: mathf::atan2(2.0 * (w * y - x * z), {
-                let r00 = 1.0 - 2.0 * (y * y + z * z);
-                let r10 = 2.0 * (x * y + w * z);
-                mathf::sqrt(r00 * r00 + r10 * r10)
-            }),
-            yaw: mathf::atan2(2.0 * (x * y + w * z), 1.0 - 2.0 * (y * y + z * z)),
+            pitch: mathf::atan2(2.0 * (w * y - x * z), mathf::sqrt(r00 * r00 + r10 * r10)),
+            yaw: mathf::atan2(r10, r00),
         }
     }
 
@@ -55,9 +55,10 @@ impl Euler {
         .normalized()
     }
 
-    /// Yaw of an attitude quaternion alone, rad (cheaper than the full conversion).
+    /// Yaw of an attitude quaternion alone, rad (cheaper than the full conversion; any norm).
     pub fn yaw_of(q: Quaternion) -> f32 {
-        mathf::atan2(2.0 * (q.x * q.y + q.w * q.z), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+        let r00 = q.w * q.w + q.x * q.x - q.y * q.y - q.z * q.z;
+        mathf::atan2(2.0 * (q.x * q.y + q.w * q.z), r00)
     }
 
     /// The angles in degrees `(roll, pitch, yaw)`.
@@ -111,6 +112,15 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn conversion_does_not_depend_on_the_norm() {
+        let e = Euler::new(deg(-20.0), deg(35.0), deg(120.0));
+        let q = e.to_quaternion().scale(1.7);
+        let b = Euler::from_quaternion(q);
+        assert!((b.roll - e.roll).abs() < 1e-5 && (b.pitch - e.pitch).abs() < 1e-5);
+        assert!((b.yaw - e.yaw).abs() < 1e-5 && (Euler::yaw_of(q) - e.yaw).abs() < 1e-5);
     }
 
     #[test]

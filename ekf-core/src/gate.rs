@@ -55,7 +55,8 @@ impl AccelGate {
     /// Magnitude, jump and hold-off checks for a valid sample `a_g` (g, body) of norm `norm_g`
     /// arriving `dt` s after the previous one.
     pub fn pre_check(&mut self, dt: f32, a_g: Vec3, norm_g: f32) -> PreCheck {
-        let jump = self.prev.map(|p| (a_g - p).norm() > self.settings.jump_g).unwrap_or(false);
+        let j = self.settings.jump_g;
+        let jump = self.prev.map(|p| (a_g - p).norm_sq() > j * j).unwrap_or(false);
         self.prev = Some(a_g);
         let mut why = Flags::NONE;
         if crate::mathf::abs(norm_g - 1.0) > self.settings.norm_tolerance {

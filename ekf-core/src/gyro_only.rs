@@ -42,16 +42,14 @@ impl AttitudeFilter for GyroOnly {
             return Flags::TIME_GAP;
         };
         if let Some(init) = self.init.as_mut() {
-            return match init::feed(init, &mut self.gate, &c) {
+            match init::feed(init, &mut self.gate, &c) {
                 InitStep::Pending(q) => {
                     self.q = q;
-                    c.flags | Flags::INITIALISING
+                    return c.flags | Flags::INITIALISING;
                 }
-                InitStep::Done(q, b) => {
-                    self.set_attitude(q, b);
-                    c.flags
-                }
-            };
+                // The window's last sample still moves the state (below).
+                InitStep::Done(q, b) => self.set_attitude(q, b),
+            }
         }
         if let Some(g) = c.gyro {
             let w = g - self.bias;

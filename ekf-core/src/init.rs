@@ -106,7 +106,10 @@ impl Initializer {
         } else {
             Quaternion::from_yaw(self.yaw)
         };
-        if self.elapsed >= self.settings.window_s && self.acc_n > 0 {
+        // Half a sample of tolerance: f32 sums of dt fall just short of the window (500 × 0.02
+        // s = 9.9999 s), and the window must end on the sample nearest its length, not on the
+        // next one, which may already be moving.
+        if self.elapsed >= self.settings.window_s - 0.5 * dt && self.acc_n > 0 {
             let bias = if self.settings.estimate_gyro_bias && self.gyro_n > 0 {
                 self.gyro_sum * (1.0 / self.gyro_n as f32)
             } else {
@@ -145,7 +148,7 @@ mod tests {
 
     #[test]
     fn window_averages_then_finishes() {
-        let s = InitSettings { window_s: 0.99, ..Default::default() };
+        let s = InitSettings { window_s: 1.0, ..Default::default() };
         let mut init = Initializer::new(s);
         init.set_yaw(deg(30.0));
         let truth = Euler::new(deg(5.0), deg(-3.0), deg(30.0)).to_quaternion();
@@ -158,7 +161,8 @@ mod tests {
             match init.push(0.02, Some(bias + Vec3::new(n, n, n)), Some(f + Vec3::new(n, -n, n))) {
                 InitStep::Pending(_) => assert!(k < 50, "still pending at {k}"),
                 InitStep::Done(q, b) => {
-                    // 0.99 s of 0.02 s steps: done at the 50th sample (even count: the noise cancels).
+                    // 1 s of 0.02 s steps: done at the 50th sample, not the 51st, although the f32 sum
+                    // of dt is 0.99999994 (even count: the noise cancels).
                     assert_eq!(k, 49);
                     done = Some((q, b));
                     break;

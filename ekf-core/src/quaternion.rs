@@ -112,6 +112,31 @@ impl Quaternion {
         Quaternion::new(1.0, 0.5 * v.x, 0.5 * v.y, 0.5 * v.z)
     }
 
+    /// `(c, 0, 0, s) ⊗ self`: a rotation about the reference z axis given by an unnormalised
+    /// `(cos, sin)` of half the angle, in 8 multiplications instead of 16.
+    #[inline]
+    pub fn pre_rotate_z(self, c: f32, s: f32) -> Quaternion {
+        Quaternion::new(
+            c * self.w - s * self.z,
+            c * self.x - s * self.y,
+            c * self.y + s * self.x,
+            c * self.z + s * self.w,
+        )
+    }
+
+    /// `(1, v/2) ⊗ self`: the small-angle rotation `v` (rad, reference frame) applied on the
+    /// left, not normalised (12 multiplications).
+    #[inline]
+    pub fn pre_rotate_small(self, v: Vec3) -> Quaternion {
+        let (a, b, c) = (0.5 * v.x, 0.5 * v.y, 0.5 * v.z);
+        Quaternion::new(
+            self.w - a * self.x - b * self.y - c * self.z,
+            self.x + a * self.w + b * self.z - c * self.y,
+            self.y - a * self.z + b * self.w + c * self.x,
+            self.z + a * self.y - b * self.x + c * self.w,
+        )
+    }
+
     /// Rotation about the reference z axis (down) by `angle` rad: a pure yaw change.
     pub fn from_yaw(angle: f32) -> Self {
         Quaternion::new(mathf::cos(0.5 * angle), 0.0, 0.0, mathf::sin(0.5 * angle))
@@ -287,6 +312,23 @@ mod tests {
     fn down_in_body_matches_inverse_rotation() {
         let q = Quaternion::from_rotation_vector(Vec3::new(0.4, -0.7, 2.0));
         assert!(close(q.down_in_body(), q.rotate_inverse(Vec3::new(0.0, 0.0, 1.0)), 1e-6));
+    }
+
+    #[test]
+    fn structured_products_equal_the_full_product() {
+        let q = Quaternion::from_rotation_vector(Vec3::new(0.3, -1.2, 0.7));
+        let (c, s) = (0.8f32, -0.35f32);
+        let full = Quaternion::new(c, 0.0, 0.0, s) * q;
+        let fast = q.pre_rotate_z(c, s);
+        for (a, b) in [(full.w, fast.w), (full.x, fast.x), (full.y, fast.y), (full.z, fast.z)] {
+            assert!((a - b).abs() < 1e-6);
+        }
+        let v = Vec3::new(0.01, -0.02, 0.005);
+        let full = Quaternion::from_small_rotation(v) * q;
+        let fast = q.pre_rotate_small(v);
+        for (a, b) in [(full.w, fast.w), (full.x, fast.x), (full.y, fast.y), (full.z, fast.z)] {
+            assert!((a - b).abs() < 1e-6);
+        }
     }
 
     #[test]

@@ -76,13 +76,15 @@ pub fn source_rmse(filter: FilterKind, scenario: Scenario, axis: usize) -> Optio
     if source_axis(scenario) != Some(axis) {
         return None;
     }
-    Some(row[match n {
-        1 => 0,
-        3 => 4,
-        4 => 5,
-        5 => 6,
-        _ => 7,
-    }])
+    Some(
+        row[match n {
+            1 => 0,
+            3 => 4,
+            4 => 5,
+            5 => 6,
+            _ => 7,
+        }],
+    )
 }
 
 /// The source's MATLAB time per cycle (Table 15, relative units), when it gives one.
@@ -121,8 +123,8 @@ impl Metric {
     pub fn describe(self) -> String {
         match self {
             Metric::Rmse(a) => format!("{} RMSE (°)", AXIS_NAMES[a]),
-            Metric::DriftDph => "|yaw drift| (°/h)".into(),
-            Metric::FinalYaw => "|final yaw error| (°)".into(),
+            Metric::DriftDph => "yaw drift, absolute (°/h)".into(),
+            Metric::FinalYaw => "final yaw error, absolute (°)".into(),
         }
     }
 }
@@ -244,22 +246,23 @@ pub fn evaluate(rows: &[TraceRow], filter: FilterKind, cfg: &ReplayConfig) -> Ru
     let mut fit = LineFit::default();
     let mut unwrapped: Option<f64> = None;
     let mut max_err = 0.0f64;
-    let stats = replay_rows(rows.iter().map(|r| Ok(*r)), f.as_mut(), &mut cond, window, |row, est| {
-        if let Some(tq) = row.truth {
-            if row.t >= t0 + window {
-                let e = wrap_deg(est.euler_deg[2] as f64 - truth_euler_deg(tq)[2]);
-                let u = match unwrapped {
-                    Some(p) => p + wrap_deg(e - p),
-                    None => e,
-                };
-                unwrapped = Some(u);
-                max_err = max_err.max(u.abs());
-                fit.add(row.t - t0, u);
+    let stats =
+        replay_rows(rows.iter().map(|r| Ok(*r)), f.as_mut(), &mut cond, window, |row, est| {
+            if let Some(tq) = row.truth {
+                if row.t >= t0 + window {
+                    let e = wrap_deg(est.euler_deg[2] as f64 - truth_euler_deg(tq)[2]);
+                    let u = match unwrapped {
+                        Some(p) => p + wrap_deg(e - p),
+                        None => e,
+                    };
+                    unwrapped = Some(u);
+                    max_err = max_err.max(u.abs());
+                    fit.add(row.t - t0, u);
+                }
             }
-        }
-        Ok(())
-    })
-    .expect("in-memory replay cannot fail");
+            Ok(())
+        })
+        .expect("in-memory replay cannot fail");
     RunResult {
         rmse_deg: stats.rmse.rmse().unwrap_or([f64::NAN; 3]),
         yaw_drift_dph: fit.slope() * 3600.0,
@@ -274,6 +277,14 @@ pub fn evaluate(rows: &[TraceRow], filter: FilterKind, cfg: &ReplayConfig) -> Ru
 pub fn run(scenario: Scenario, seed: u64, filter: FilterKind) -> RunResult {
     let rows = simulate(scenario, None, seed);
     evaluate(&rows, filter, &replay_config(scenario))
+}
+
+/// CPU time of the calling thread, s (Linux: `/proc/thread-self/schedstat`, nanoseconds on the
+/// CPU), so that other processes competing for the cores do not count in a timing; `None`
+/// where unavailable (callers then use wall time).
+pub fn thread_cpu_s() -> Option<f64> {
+    let s = std::fs::read_to_string("/proc/thread-self/schedstat").ok()?;
+    Some(s.split_whitespace().next()?.parse::<f64>().ok()? * 1e-9)
 }
 
 /// Replace the text between the lines `<!-- BEGIN name -->` and `<!-- END name -->` of `doc`

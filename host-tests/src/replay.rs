@@ -162,8 +162,9 @@ const CHUNK: usize = 2048;
 /// Replay `reader` through `conditioner` and `filter`, writing estimates to `out`. RMSE is
 /// taken over rows with `t ≥ t₀ + window_s`.
 ///
-/// Parsing runs on a second thread, a chunk of rows ahead of the filter and the writer.
-pub fn replay<R: BufRead + Send, W: Write>(
+/// Three stages on three threads, a few chunks of rows apart: parsing, the filter (this
+/// thread), and formatting plus writing the estimates.
+pub fn replay<R: BufRead + Send, W: Write + Send>(
     mut reader: TraceReader<R>,
     out: W,
     filter: &mut dyn AttitudeFilter,
@@ -192,8 +193,39 @@ pub fn replay<R: BufRead + Send, W: Write>(
                 return;
             }
         });
+        let (etx, erx) = std::sync::mpsc::sync_channel::<Vec<EstimateRow>>(8);
+        let writer = scope.spawn(move || -> io::Result<()> {
+            let mut w = EstimateWriter::new(out)?;
+            for chunk in erx {
+                for e in &chunk {
+                    w.row(e)?;
+                }
+            }
+            w.finish()?;
+            Ok(())
+        });
         let mut rows = Chunks { rx, current: Vec::new().into_iter() };
-        let mut stats = run_rows(&mut rows, out, filter, conditioner, window_s)?;
+        let mut buf: Vec<EstimateRow> = Vec::with_capacity(CHUNK);
+        let result = replay_rows(&mut rows, filter, conditioner, window_s, |_, e| {
+            buf.push(*e);
+            if buf.len() == CHUNK {
+                let full = std::mem::replace(&mut buf, Vec::with_capacity(CHUNK));
+                // A closed channel means the writer failed: its error is reported below.
+                etx.send(full).map_err(|_| io::Error::other("estimate writer stopped"))?;
+            }
+            Ok(())
+        });
+        if result.is_ok() && !buf.is_empty() {
+            let _ = etx.send(buf);
+        }
+        drop(etx);
+        let written = writer.join().unwrap_or_else(|p| std::panic::resume_unwind(p));
+        let mut stats = match (result, written) {
+            // A write error comes first: it is why the replay stopped.
+            (_, Err(e)) => return Err(ReplayError::Io(e)),
+            (Err(e), Ok(())) => return Err(e),
+            (Ok(s), Ok(())) => s,
+        };
         stats.elapsed_s = start.elapsed().as_secs_f64();
         Ok(stats)
     })
@@ -219,19 +251,6 @@ impl Iterator for Chunks {
             }
         }
     }
-}
-
-fn run_rows<I: Iterator<Item = Result<TraceRow, TraceError>>, W: Write>(
-    input: &mut I,
-    out: W,
-    filter: &mut dyn AttitudeFilter,
-    conditioner: &mut Conditioner,
-    window_s: f64,
-) -> Result<ReplayStats, ReplayError> {
-    let mut w = EstimateWriter::new(out)?;
-    let stats = replay_rows(input, filter, conditioner, window_s, |_, est| w.row(est))?;
-    w.finish()?;
-    Ok(stats)
 }
 
 /// The replay loop behind [`replay`], on rows already parsed: conditioning, `dt`, the filter,

@@ -22,6 +22,11 @@
 //! `{}`, with an exponent for very small or large values), so an `f32` written and read back
 //! is bit-identical; `t` is kept as `f64`. NaN or infinite values are written as `NaN`/`inf`
 //! (the reader rejects them).
+//!
+//! Speed: numbers are parsed with an exact fast path (see `fast_f64`; anything it does not
+//! cover goes to the standard library's parser, so values and errors are those of
+//! `str::parse`), and output is assembled in 64 KiB blocks. `cargo bench -p host-tests --bench
+//! replay_speed` measures both.
 
 use std::fmt;
 use std::io::{self, BufRead, Write};
@@ -344,6 +349,125 @@ impl<R: BufRead> CsvReader<R> {
     }
 }
 
+/// Powers of ten exactly representable in `f64`.
+const POW10: [f64; 23] = [
+    1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15, 1e16,
+    1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
+];
+
+/// Exact fast path of decimal → `f64` (Clinger): `[+-]digits[.digits][(e|E)[+-]digits]` with
+/// at most 19 digits, a mantissa `m ≤ 2⁵³` and a decimal exponent `|e| ≤ 22`, so
+/// that `m` and `10^|e|` are exact in `f64` and one correctly rounded multiplication or
+/// division gives the correctly rounded result. `None` for anything else (the caller then
+/// uses the standard library's parser, which also produces the errors): the result, when
+/// there is one, is always the one `str::parse::<f64>` gives.
+fn fast_f64(b: &[u8]) -> Option<f64> {
+    let (neg, mut i) = match b.first()? {
+        b'-' => (true, 1),
+        b'+' => (false, 1),
+        _ => (false, 0),
+    };
+    // At most 19 digits in all (leading zeros included), so `m` cannot overflow.
+    let mut m: u64 = 0;
+    let int_start = i;
+    while i < b.len() && b[i].is_ascii_digit() {
+        m = m.wrapping_mul(10).wrapping_add(u64::from(b[i] - b'0'));
+        i += 1;
+    }
+    let mut nd = i - int_start;
+    let mut exp: i32 = 0;
+    if i < b.len() && b[i] == b'.' {
+        i += 1;
+        let frac_start = i;
+        while i < b.len() && b[i].is_ascii_digit() {
+            m = m.wrapping_mul(10).wrapping_add(u64::from(b[i] - b'0'));
+            i += 1;
+        }
+        exp = -((i - frac_start) as i32);
+        nd += i - frac_start;
+    }
+    if nd == 0 || nd > 19 {
+        return None;
+    }
+    if i < b.len() && (b[i] == b'e' || b[i] == b'E') {
+        i += 1;
+        let eneg = match b.get(i) {
+            Some(b'-') => {
+                i += 1;
+                true
+            }
+            Some(b'+') => {
+                i += 1;
+                false
+            }
+            _ => false,
+        };
+        let start = i;
+        let mut e: i32 = 0;
+        while i < b.len() && b[i].is_ascii_digit() {
+            if e > 1000 {
+                return None;
+            }
+            e = e * 10 + i32::from(b[i] - b'0');
+            i += 1;
+        }
+        if i == start {
+            return None;
+        }
+        exp += if eneg { -e } else { e };
+    }
+    if i != b.len() || m > 1 << 53 {
+        return None;
+    }
+    let v = if m == 0 {
+        0.0
+    } else if (0..=22).contains(&exp) {
+        m as f64 * POW10[exp as usize]
+    } else if (-22..0).contains(&exp) {
+        m as f64 / POW10[(-exp) as usize]
+    } else {
+        return None;
+    };
+    Some(if neg { -v } else { v })
+}
+
+/// `f32` through [`fast_f64`]: rounding the correctly rounded `f64` to `f32` is correct unless
+/// the `f64` landed exactly on a midpoint between two `f32`s (double rounding); that case, and
+/// results outside the normal `f32` range, go to the standard parser.
+fn fast_f32(b: &[u8]) -> Option<f32> {
+    let x = fast_f64(b)?;
+    let a = x.abs();
+    if a == 0.0 {
+        return Some(x as f32);
+    }
+    if !(a >= f32::MIN_POSITIVE as f64 && a <= f32::MAX as f64) {
+        return None;
+    }
+    // In the normal range the f32 grid is the f64 significand cut to 23 bits: a midpoint has
+    // the 29 dropped bits equal to 1000…0.
+    if x.to_bits() & ((1 << 29) - 1) == 1 << 28 {
+        return None;
+    }
+    Some(x as f32)
+}
+
+/// Numbers the reader parses: the exact fast path, else `FromStr`.
+trait FastParse: std::str::FromStr + Copy + Into<f64> {
+    fn fast_parse(b: &[u8]) -> Option<Self>;
+}
+
+impl FastParse for f32 {
+    fn fast_parse(b: &[u8]) -> Option<f32> {
+        fast_f32(b)
+    }
+}
+
+impl FastParse for f64 {
+    fn fast_parse(b: &[u8]) -> Option<f64> {
+        fast_f64(b)
+    }
+}
+
 /// One data line of a [`CsvReader`].
 pub struct Record<'a> {
     text: &'a str,
@@ -364,8 +488,11 @@ impl Record<'_> {
         &self.text[s..e]
     }
 
-    fn parse<T: std::str::FromStr + Copy + Into<f64>>(&self, i: usize) -> Result<T, TraceError> {
+    fn parse<T: FastParse>(&self, i: usize) -> Result<T, TraceError> {
         let text = self.text(i);
+        if let Some(v) = T::fast_parse(text.as_bytes()) {
+            return Ok(v);
+        }
         match text.parse::<T>() {
             Ok(v) if v.into().is_finite() => Ok(v),
             Ok(_) => Err(TraceError::NotFinite {
@@ -514,8 +641,13 @@ pub fn read_trace_file(
     Ok((cols, rows))
 }
 
-/// One output line being assembled: shortest round-trip float formatting (`ryu`: `0.02`,
-/// `1.0`, `-9.80665`, `1.6284444e-12`), then a single write.
+/// Output is assembled in the writer's own buffer and handed to the inner writer in blocks of
+/// about this many bytes (a block at least as large as a `BufWriter`'s 64 KiB buffer bypasses
+/// it, so bytes are copied once).
+const OUT_BLOCK: usize = 64 * 1024;
+
+/// One output line being appended to a writer's buffer: shortest round-trip float formatting
+/// (`ryu`: `0.02`, `1.0`, `-9.80665`, `1.6284444e-12`).
 struct Line<'a> {
     buf: &'a mut Vec<u8>,
     fb: ryu::Buffer,
@@ -524,7 +656,6 @@ struct Line<'a> {
 
 impl<'a> Line<'a> {
     fn new(buf: &'a mut Vec<u8>) -> Self {
-        buf.clear();
         Line { buf, fb: ryu::Buffer::new(), first: true }
     }
 
@@ -537,13 +668,15 @@ impl<'a> Line<'a> {
 
     fn f64(&mut self, v: f64) {
         self.sep();
-        self.buf.extend_from_slice(self.fb.format(v).as_bytes());
+        let s = if v.is_finite() { self.fb.format_finite(v) } else { self.fb.format(v) };
+        self.buf.extend_from_slice(s.as_bytes());
     }
 
     fn f32s(&mut self, vs: &[f32]) {
         for &v in vs {
             self.sep();
-            self.buf.extend_from_slice(self.fb.format(v).as_bytes());
+            let s = if v.is_finite() { self.fb.format_finite(v) } else { self.fb.format(v) };
+            self.buf.extend_from_slice(s.as_bytes());
         }
     }
 
@@ -553,9 +686,14 @@ impl<'a> Line<'a> {
         }
     }
 
+    /// End the line; hand the buffer to `w` once it holds a block.
     fn finish<W: Write>(self, w: &mut W) -> io::Result<()> {
         self.buf.push(b'\n');
-        w.write_all(self.buf)
+        if self.buf.len() >= OUT_BLOCK {
+            w.write_all(self.buf)?;
+            self.buf.clear();
+        }
+        Ok(())
     }
 }
 
@@ -571,7 +709,7 @@ fn itoa_u16(mut v: u16, buf: &mut [u8; 5]) -> &[u8] {
     }
 }
 
-/// Writer of input traces.
+/// Writer of input traces. Output is buffered in blocks: end with [`TraceWriter::finish`].
 pub struct TraceWriter<W: Write> {
     w: W,
     cols: TraceColumns,
@@ -593,12 +731,15 @@ impl<W: Write> TraceWriter<W> {
             w.write_all(b",qw,qx,qy,qz")?;
         }
         w.write_all(b"\n")?;
-        Ok(TraceWriter { w, cols, buf: Vec::with_capacity(192) })
+        Ok(TraceWriter { w, cols, buf: Vec::with_capacity(OUT_BLOCK + 512) })
     }
 
     /// A `# ` comment line (newlines in `text` are replaced by spaces).
     pub fn comment(&mut self, text: &str) -> io::Result<()> {
-        writeln!(self.w, "# {}", text.replace(['\n', '\r'], " "))
+        self.buf.extend_from_slice(b"# ");
+        self.buf.extend_from_slice(text.replace(['\n', '\r'], " ").as_bytes());
+        self.buf.push(b'\n');
+        Ok(())
     }
 
     /// One row. Optional columns missing from `row` are written as empty cells.
@@ -628,8 +769,11 @@ impl<W: Write> TraceWriter<W> {
         line.finish(&mut self.w)
     }
 
-    /// Flush and return the inner writer.
+    /// Write what is buffered, flush and return the inner writer. Rows are buffered: without
+    /// this call the last rows are lost.
     pub fn finish(mut self) -> io::Result<W> {
+        self.w.write_all(&self.buf)?;
+        self.buf.clear();
         self.w.flush()?;
         Ok(self.w)
     }
@@ -655,6 +799,7 @@ pub const ESTIMATE_HEADER: &str = "t,qw,qx,qy,qz,roll,pitch,yaw,bias_x,bias_y,bi
 
 /// Writer of estimate files: `t,qw,qx,qy,qz,roll,pitch,yaw` (Euler in degrees), then
 /// `bias_x,bias_y,bias_z` (°/s) and `flags` (the `ekf_core::Flags` bits as an integer).
+/// Output is buffered in blocks: end with [`EstimateWriter::finish`].
 pub struct EstimateWriter<W: Write> {
     w: W,
     buf: Vec<u8>,
@@ -664,7 +809,7 @@ impl<W: Write> EstimateWriter<W> {
     /// Write the header.
     pub fn new(mut w: W) -> io::Result<Self> {
         writeln!(w, "{ESTIMATE_HEADER}")?;
-        Ok(EstimateWriter { w, buf: Vec::with_capacity(192) })
+        Ok(EstimateWriter { w, buf: Vec::with_capacity(OUT_BLOCK + 512) })
     }
 
     /// One row.
@@ -679,8 +824,11 @@ impl<W: Write> EstimateWriter<W> {
         line.finish(&mut self.w)
     }
 
-    /// Flush and return the inner writer.
+    /// Write what is buffered, flush and return the inner writer. Rows are buffered: without
+    /// this call the last rows are lost.
     pub fn finish(mut self) -> io::Result<W> {
+        self.w.write_all(&self.buf)?;
+        self.buf.clear();
         self.w.flush()?;
         Ok(self.w)
     }
@@ -841,6 +989,100 @@ mod tests {
         let bytes = w.finish().unwrap();
         let back = read(std::str::from_utf8(&bytes).unwrap()).unwrap();
         assert_eq!(back, rows);
+    }
+
+    #[test]
+    fn fast_parse_agrees_with_the_standard_parser() {
+        let fixed = [
+            "0",
+            "-0",
+            "+0",
+            "0.0",
+            "1",
+            "-1",
+            "1.0",
+            "0.02",
+            "-9.80665",
+            "9.805495",
+            "1e5",
+            "1E5",
+            "1e+5",
+            "1e-5",
+            "-1.6284444e-12",
+            "0.0006753999",
+            "6.4238854e-8",
+            "3.4028235e38",
+            "3.4028236e38",
+            "1.1754944e-38",
+            "1e-45",
+            "1e-30",
+            "123456789012345678901",
+            ".5",
+            "5.",
+            ".",
+            "-",
+            "+",
+            "",
+            "e5",
+            "1e",
+            "1e+",
+            "1.2.3",
+            "1,2",
+            "NaN",
+            "inf",
+            "-inf",
+            "0x10",
+            " 1",
+            "1 ",
+            "16777217",
+            "16777217.0",
+            "33554435",
+            "0.1",
+            "0.3",
+            "9007199254740993",
+            "9007199254740992",
+            "1e22",
+            "1e23",
+            "1e-22",
+            "1e-23",
+            "00000000000000000000000001.5",
+            "1.00000000000000000000000",
+        ];
+        let check = |t: &str| {
+            let b = t.as_bytes();
+            if let Some(v) = fast_f64(b) {
+                assert_eq!(t.parse::<f64>().map(f64::to_bits), Ok(v.to_bits()), "f64 {t:?}");
+            }
+            if let Some(v) = fast_f32(b) {
+                assert_eq!(t.parse::<f32>().map(f32::to_bits), Ok(v.to_bits()), "f32 {t:?}");
+            }
+        };
+        for t in fixed {
+            check(t);
+        }
+        // Shortest round-trip output of many f32 and f64 values (what the writers produce),
+        // and decimal strings near f32 midpoints.
+        let mut rng = crate::rng::Rng::new(99, 0);
+        let mut fast = 0;
+        for k in 0..200_000u32 {
+            let bits = rng.next_u64();
+            let x32 = f32::from_bits(bits as u32);
+            let x64 = f64::from_bits(bits);
+            let scaled = (rng.normal() * 10f64.powi((k % 40) as i32 - 20)) as f32;
+            for t in [
+                ryu::Buffer::new().format(x32).to_string(),
+                ryu::Buffer::new().format(scaled).to_string(),
+                ryu::Buffer::new().format(x64).to_string(),
+                format!("{:.9e}", scaled as f64 * (1.0 + 2f64.powi(-25))),
+                format!("{}", (bits >> 11) as f64 / 1e10),
+            ] {
+                check(&t);
+                if fast_f32(t.as_bytes()).is_some() {
+                    fast += 1;
+                }
+            }
+        }
+        assert!(fast > 200_000, "the fast path is taken for most inputs ({fast})");
     }
 
     #[test]

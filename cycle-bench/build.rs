@@ -1,0 +1,153 @@
+//! Generates the embedded benchmark trace (`$OUT_DIR/trace.rs`) and, for bare-metal targets,
+//! links with the firmware's memory map (the workspace root's `memory.x`, STM32F103RE).
+//!
+//! The trace is deterministic (its own 64-bit LCG, `f64` arithmetic, values rounded to `f32`
+//! once) so the instruction counts of every benchmark step are reproducible bit for bit:
+//! - `INIT_LEN` samples (10 s at 50 Hz) of a still board, slightly tilted, for the filters'
+//!   initialisation window (run by `ahrs_bench_select`, not measured);
+//! - `MOTION_LEN` samples (8 s) of smooth motion that every filter's gate accepts: roll
+//!   8° at 0.25 Hz, pitch 15° at 0.125 Hz, yaw 30° at 0.125 Hz, as an ROV pitching and
+//!   yawing in a swell. Whole periods, so the benchmark can loop over it seamlessly.
+//!
+//! Sensors: the board's gyro bias (1.619, 3.440, −0.004) °/s and white noise (0.58, 0.52,
+//! 0.065) °/s per sample, the LSM303DLH's 0.0015 g accelerometer noise, no linear
+//! acceleration (the accelerometer reads gravity only, so every sample takes the full update
+//! path: accepted by the magnitude, jump and innovation gates).
+use std::{env, f64::consts::PI, fmt::Write as _, fs, path::PathBuf};
+
+const RATE_HZ: f64 = 50.0;
+const INIT_LEN: usize = 500;
+const MOTION_LEN: usize = 400;
+const G: f64 = 9.806_65;
+
+struct Lcg(u64);
+
+impl Lcg {
+    fn uniform(&mut self) -> f64 {
+        self.0 =
+            self.0.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+        (self.0 >> 11) as f64 / (1u64 << 53) as f64
+    }
+    /// Approximately standard normal (Irwin–Hall, 12 uniforms).
+    fn normal(&mut self) -> f64 {
+        (0..12).map(|_| self.uniform()).sum::<f64>() - 6.0
+    }
+}
+
+/// Euler angles (roll, pitch, yaw) and their time derivatives at motion time `t`, rad, rad/s.
+fn motion(t: f64) -> ([f64; 3], [f64; 3]) {
+    let (r0, p0) = (2.0f64.to_radians(), (-1.0f64).to_radians());
+    let (ar, wr) = (8.0f64.to_radians(), 2.0 * PI / 4.0);
+    let (ap, wp) = (15.0f64.to_radians(), 2.0 * PI / 8.0);
+    let (ay, wy) = (30.0f64.to_radians(), 2.0 * PI / 8.0);
+    (
+        [r0 + ar * (wr * t).sin(), p0 + ap * (wp * t).sin(), ay * (wy * t).sin()],
+        [ar * wr * (wr * t).cos(), ap * wp * (wp * t).cos(), ay * wy * (wy * t).cos()],
+    )
+}
+
+/// Body rates (FRD) from Z-Y-X Euler angles and rates, and the accelerometer's specific force
+/// (gravity only) in the body frame, m/s².
+fn body(e: [f64; 3], de: [f64; 3]) -> ([f64; 3], [f64; 3]) {
+    let ([phi, theta, _], [dphi, dtheta, dpsi]) = (e, de);
+    let w = [
+        dphi - dpsi * theta.sin(),
+        dtheta * phi.cos() + dpsi * theta.cos() * phi.sin(),
+        -dtheta * phi.sin() + dpsi * theta.cos() * phi.cos(),
+    ];
+    let a = [G * theta.sin(), -G * phi.sin() * theta.cos(), -G * phi.cos() * theta.cos()];
+    (w, a)
+}
+
+fn main() {
+    let out = PathBuf::from(env::var("OUT_DIR").expect("OUT_DIR"));
+    let manifest = PathBuf::from(env::var("CARGO_MANIFEST_DIR").expect("manifest dir"));
+
+    let dt = 1.0 / RATE_HZ;
+    let bias = [1.619f64.to_radians(), 3.440f64.to_radians(), (-0.0042f64).to_radians()];
+    let gyro_sigma = [0.337f64.sqrt(), 0.275f64.sqrt(), 4.19e-3f64.sqrt()].map(f64::to_radians);
+    let accel_sigma = 2.376e-6f64.sqrt() * G;
+    let mut rng = Lcg(0x5EA_0C0D_E5EE_D5EE);
+
+    let mut src = String::new();
+    writeln!(src, "/// Samples of the still initialisation window.").unwrap();
+    writeln!(src, "pub const INIT_LEN: usize = {INIT_LEN};").unwrap();
+    writeln!(src, "/// Samples of the motion part (whole periods: it loops seamlessly).").unwrap();
+    writeln!(src, "pub const MOTION_LEN: usize = {MOTION_LEN};").unwrap();
+    writeln!(src, "/// `[dt, gx, gy, gz, ax, ay, az]`: s, rad/s (body FRD), m/s² (body FRD).")
+        .unwrap();
+    writeln!(src, "pub static TRACE: [[f32; 7]; {}] = [", INIT_LEN + MOTION_LEN).unwrap();
+    for k in 0..INIT_LEN + MOTION_LEN {
+        let (e, de) = if k < INIT_LEN {
+            let (e, _) = motion(0.0);
+            (e, [0.0; 3])
+        } else {
+            motion((k - INIT_LEN) as f64 * dt)
+        };
+        let (w, a) = body(e, de);
+        let mut row = [dt as f32; 7];
+        for i in 0..3 {
+            row[1 + i] = (w[i] + bias[i] + gyro_sigma[i] * rng.normal()) as f32;
+        }
+        for i in 0..3 {
+            row[4 + i] = (a[i] + accel_sigma * rng.normal()) as f32;
+        }
+        let cells: Vec<String> = row.iter().map(|v| format!("{v:?}")).collect();
+        writeln!(src, "    [{}],", cells.join(", ")).unwrap();
+    }
+    writeln!(src, "];").unwrap();
+    fs::write(out.join("trace.rs"), src).expect("write trace.rs");
+    println!("cargo:rerun-if-changed=build.rs");
+
+    if env::var("CARGO_CFG_TARGET_OS").as_deref() == Ok("none") {
+        let root = manifest.parent().expect("workspace root");
+        println!("cargo:rustc-link-search={}", root.display());
+        println!("cargo:rustc-link-arg-bins=-Tlink.x");
+        println!("cargo:rerun-if-changed={}", root.join("memory.x").display());
+        soft_float();
+    }
+}
+
+/// Soft-float routines of the thumbv7m build. `CYCLE_BENCH_SOFTFLOAT=libgcc` links libgcc's
+/// hand-written Thumb-2 soft-float (gcc's `ieee754-sf.S`/`ieee754-df.S`, from Debian's
+/// `gcc-arm-none-eabi`, Cortex-M3 no-FPU multilib) instead of `compiler-builtins`'; unset or
+/// `builtins`: compiler-builtins (the figures of docs/performance.md).
+///
+/// How: `-l static=gcc` from a build script is placed on the link line right after this crate's
+/// objects, before the rlibs and so before `compiler_builtins`, whose intrinsics are weak hidden
+/// symbols anyway: the linker takes libgcc's strong `__aeabi_f*`/`__aeabi_d*` (no duplicate
+/// symbols; `-C link-arg=-lgcc` would not work: it lands after `compiler_builtins`, which then
+/// wins silently). The archive's directory is asked of `arm-none-eabi-gcc` at build time
+/// (`ARM_NONE_EABI_GCC` overrides the command), never hard-coded.
+fn soft_float() {
+    println!("cargo:rerun-if-env-changed=CYCLE_BENCH_SOFTFLOAT");
+    println!("cargo:rerun-if-env-changed=ARM_NONE_EABI_GCC");
+    match env::var("CYCLE_BENCH_SOFTFLOAT").as_deref() {
+        Err(_) | Ok("" | "builtins") => return,
+        Ok("libgcc") => {}
+        Ok(other) => panic!("CYCLE_BENCH_SOFTFLOAT={other}: expected `libgcc` or `builtins`"),
+    }
+    let target = env::var("TARGET").unwrap_or_default();
+    assert!(
+        target == "thumbv7m-none-eabi",
+        "CYCLE_BENCH_SOFTFLOAT=libgcc: only thumbv7m-none-eabi is wired (target {target})"
+    );
+    let gcc = env::var("ARM_NONE_EABI_GCC").unwrap_or_else(|_| "arm-none-eabi-gcc".into());
+    let out = std::process::Command::new(&gcc)
+        .args(["-mcpu=cortex-m3", "-mthumb", "-mfloat-abi=soft", "-print-libgcc-file-name"])
+        .output()
+        .unwrap_or_else(|e| {
+            panic!(
+                "CYCLE_BENCH_SOFTFLOAT=libgcc: cannot run {gcc} ({e}); Debian: gcc-arm-none-eabi"
+            )
+        });
+    let lib = PathBuf::from(String::from_utf8_lossy(&out.stdout).trim());
+    assert!(
+        out.status.success() && lib.is_file(),
+        "CYCLE_BENCH_SOFTFLOAT=libgcc: {gcc} -print-libgcc-file-name gave no libgcc.a ({})",
+        lib.display()
+    );
+    println!("cargo:rerun-if-changed={}", lib.display());
+    println!("cargo:rustc-link-search=native={}", lib.parent().expect("libgcc dir").display());
+    println!("cargo:rustc-link-lib=static=gcc");
+}

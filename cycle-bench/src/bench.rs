@@ -1,0 +1,242 @@
+//! The benchmark state and its C ABI (see the crate documentation).
+
+use core::cell::UnsafeCell;
+
+use ekf_core::{
+    complementary::ComplementaryParams, AttitudeFilter, Complementary, Ekf, Euler, Flags, GyroOnly,
+    ImuSample, Settings, SsUkf, Ukf, Vec3,
+};
+
+include!(concat!(env!("OUT_DIR"), "/trace.rs"));
+
+/// Filter ids of `ahrs_bench_select`, in order, as the tools name them.
+pub const FILTERS: [&str; 5] = ["ekf", "ukf", "ssukf", "cf", "gyro"];
+
+/// `ahrs_bench_select`: unknown filter id.
+pub const BAD_ID: u32 = 1;
+/// `ahrs_bench_select`: the filter was still initialising after the trace's still part.
+pub const NOT_INITIALISED: u32 = 2;
+/// `ahrs_bench_step*`: no filter (or another filter) is selected.
+pub const NOT_SELECTED: u32 = 0xFFFF_FFFF;
+/// The accelerometer-used bit of the returned flags.
+pub const ACCEL_USED: u32 = Flags::ACCEL_USED.0 as u32;
+
+/// The selected filter. One static slot sized for the largest (no heap on the target).
+#[allow(clippy::large_enum_variant)]
+enum Active {
+    None,
+    Ekf(Ekf),
+    Ukf(Ukf),
+    SsUkf(SsUkf),
+    Cf(Complementary),
+    Gyro(GyroOnly),
+}
+
+struct State {
+    active: Active,
+    /// Next motion sample, `0..MOTION_LEN`.
+    cursor: usize,
+}
+
+/// Single-threaded global: the bench runs on one core with no interrupts touching it.
+pub struct Global<T>(UnsafeCell<T>);
+// SAFETY: only the exported functions touch it, and they are never called concurrently (one
+// core, called from the thread mode of a bare-metal program or from one host thread).
+unsafe impl<T> Sync for Global<T> {}
+
+static STATE: Global<State> = Global(UnsafeCell::new(State { active: Active::None, cursor: 0 }));
+
+/// Euler output of the last step, rad: roll, pitch, yaw. Written volatile so that the
+/// conversion is part of every step.
+#[no_mangle]
+pub static AHRS_BENCH_EULER: Global<[f32; 3]> = Global(UnsafeCell::new([0.0; 3]));
+
+fn state() -> &'static mut State {
+    // SAFETY: see `Global`; no two references are alive at once (each export takes one).
+    unsafe { &mut *STATE.0.get() }
+}
+
+/// The last Euler output (roll, pitch, yaw), rad.
+pub fn euler_out() -> [f32; 3] {
+    // SAFETY: see `Global`.
+    unsafe { core::ptr::read_volatile(AHRS_BENCH_EULER.0.get()) }
+}
+
+#[inline(always)]
+fn sample(row: &[f32; 7]) -> ImuSample {
+    ImuSample::new(row[0], Vec3::new(row[1], row[2], row[3]), Vec3::new(row[4], row[5], row[6]))
+}
+
+impl State {
+    #[inline(always)]
+    fn next_sample(&mut self) -> ImuSample {
+        let i = self.cursor % MOTION_LEN;
+        self.cursor = (i + 1) % MOTION_LEN;
+        sample(&TRACE[INIT_LEN + i])
+    }
+}
+
+#[inline(always)]
+fn run<F: AttitudeFilter>(f: &mut F, s: &ImuSample) -> u32 {
+    let flags = f.update(s);
+    let Euler { roll, pitch, yaw } = f.euler();
+    // SAFETY: see `Global`.
+    unsafe { core::ptr::write_volatile(AHRS_BENCH_EULER.0.get(), [roll, pitch, yaw]) };
+    flags.0 as u32
+}
+
+macro_rules! step_fn {
+    ($(#[$m:meta])* $name:ident, $variant:ident) => {
+        $(#[$m])*
+        #[no_mangle]
+        #[inline(never)]
+        pub extern "C" fn $name() -> u32 {
+            let st = state();
+            let s = st.next_sample();
+            match &mut st.active {
+                Active::$variant(f) => run(f, &s),
+                _ => NOT_SELECTED,
+            }
+        }
+    };
+}
+
+step_fn!(
+    /// One EKF update and Euler output on the next motion sample.
+    ahrs_bench_step_ekf,
+    Ekf
+);
+step_fn!(
+    /// One UKF update and Euler output on the next motion sample.
+    ahrs_bench_step_ukf,
+    Ukf
+);
+step_fn!(
+    /// One SS-UKF update and Euler output on the next motion sample.
+    ahrs_bench_step_ssukf,
+    SsUkf
+);
+step_fn!(
+    /// One complementary-filter update and Euler output on the next motion sample.
+    ahrs_bench_step_cf,
+    Cf
+);
+step_fn!(
+    /// One gyro-only update and Euler output on the next motion sample.
+    ahrs_bench_step_gyro,
+    Gyro
+);
+
+/// One update of the selected filter on the next motion sample and its Euler output; returns
+/// the update's flag bits, or [`NOT_SELECTED`].
+#[no_mangle]
+pub extern "C" fn ahrs_bench_step() -> u32 {
+    match state().active {
+        Active::Ekf(_) => ahrs_bench_step_ekf(),
+        Active::Ukf(_) => ahrs_bench_step_ukf(),
+        Active::SsUkf(_) => ahrs_bench_step_ssukf(),
+        Active::Cf(_) => ahrs_bench_step_cf(),
+        Active::Gyro(_) => ahrs_bench_step_gyro(),
+        Active::None => NOT_SELECTED,
+    }
+}
+
+fn init_window<F: AttitudeFilter>(f: &mut F) -> bool {
+    for row in &TRACE[..INIT_LEN] {
+        f.update(&sample(row));
+    }
+    f.is_initialised()
+}
+
+/// Select filter `id` (see [`FILTERS`]) with the default settings, run it through its
+/// initialisation window on the trace's still part and rewind the motion part. Returns 0, or
+/// [`BAD_ID`] / [`NOT_INITIALISED`].
+#[no_mangle]
+pub extern "C" fn ahrs_bench_select(id: u32) -> u32 {
+    let s = Settings::default();
+    let st = state();
+    st.active = Active::None;
+    st.cursor = 0;
+    let ok = match id {
+        0 => {
+            let mut f = Ekf::new(s);
+            let ok = init_window(&mut f);
+            st.active = Active::Ekf(f);
+            ok
+        }
+        1 => {
+            let mut f = Ukf::with_defaults();
+            let ok = init_window(&mut f);
+            st.active = Active::Ukf(f);
+            ok
+        }
+        2 => {
+            let mut f = SsUkf::with_defaults();
+            let ok = init_window(&mut f);
+            st.active = Active::SsUkf(f);
+            ok
+        }
+        3 => {
+            let mut f = Complementary::new(s, ComplementaryParams::default());
+            let ok = init_window(&mut f);
+            st.active = Active::Cf(f);
+            ok
+        }
+        4 => {
+            let mut f = GyroOnly::new(s);
+            let ok = init_window(&mut f);
+            st.active = Active::Gyro(f);
+            ok
+        }
+        _ => return BAD_ID,
+    };
+    if ok {
+        0
+    } else {
+        NOT_INITIALISED
+    }
+}
+
+/// The default EKF, initialised on the trace's still part (`ahrs_bench_select(0)`).
+#[no_mangle]
+pub extern "C" fn ahrs_bench_init() {
+    ahrs_bench_select(0);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The measured path is the full one: every filter initialises on the still part, and on
+    /// every motion sample (two laps, so the wrap-around too) the accelerometer is used and
+    /// nothing is rejected, invalid or reset. The bench state is global, so one test only.
+    #[test]
+    fn every_step_takes_the_full_update_path() {
+        let bad = Flags::ACCEL_GATED
+            | Flags::ACCEL_KNOCK
+            | Flags::ACCEL_INVALID
+            | Flags::GYRO_INVALID
+            | Flags::TIME_GAP
+            | Flags::HEALTH_RESET
+            | Flags::INITIALISING
+            | Flags::REACQUIRE;
+        for (id, name) in FILTERS.iter().enumerate() {
+            assert_eq!(ahrs_bench_select(id as u32), 0, "{name} did not initialise");
+            for k in 0..2 * MOTION_LEN {
+                let f = ahrs_bench_step();
+                assert_ne!(f, NOT_SELECTED);
+                let f = Flags(f as u16);
+                if *name != "gyro" {
+                    assert!(f.contains(Flags::ACCEL_USED), "{name} step {k}: {f:?}");
+                }
+                assert!(!f.intersects(bad), "{name} step {k}: {f:?}");
+            }
+            // The estimate follows the trace's motion: pitch within ±20°.
+            let e = euler_out();
+            assert!(e.iter().all(|v| v.is_finite()), "{name}: {e:?}");
+            assert!(e[1].abs() < 20f32.to_radians(), "{name}: {e:?}");
+        }
+        assert_eq!(ahrs_bench_select(99), BAD_ID);
+        assert_eq!(ahrs_bench_step(), NOT_SELECTED);
+    }
+}

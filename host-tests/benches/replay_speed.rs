@@ -1,0 +1,166 @@
+//! Replay throughput: `cargo bench -p host-tests --bench replay_speed`.
+//!
+//! The one-hour `still-hour` trace (180 000 rows, seed 1) is simulated and written to memory
+//! once; then, best of 7 runs each, on one thread, timed by the thread's CPU time (Linux
+//! `/proc/thread-self/schedstat`; wall time elsewhere) so that other processes sharing the
+//! cores do not inflate it:
+//! - **parse**: `TraceReader` over the CSV bytes;
+//! - **filter**: the replay loop (`replay_rows`: conditioning, `dt`, the EKF, RMSE) on parsed
+//!   rows, estimates discarded;
+//! - **format**: `EstimateWriter` of the estimate rows into memory;
+//!
+//! and end to end, `replay` (the `replay` command's function: parsing and writing on their own
+//! threads) from
+//! the CSV bytes in memory to an estimate CSV in memory, wall time. The sum of the three
+//! stages is the CPU time per row of one core doing everything. `--markdown docs/accuracy.md`
+//! also writes the table into docs/accuracy.md.
+
+use std::fmt::Write as _;
+use std::io::BufReader;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use ekf_core::conditioning::Conditioner;
+use host_tests::accuracy::{replace_section, replay_config, simulate, thread_cpu_s};
+use host_tests::replay::{replay, replay_rows, FilterKind};
+use host_tests::sim::Scenario;
+use host_tests::trace::{EstimateRow, EstimateWriter, TraceReader, TraceRow, TraceWriter};
+
+const REPS: usize = 7;
+const SECTION: &str = "replay-speed";
+const COMMAND: &str =
+    "cargo bench -p host-tests --bench replay_speed -- --markdown docs/accuracy.md";
+
+/// Best of [`REPS`] runs of `f`: thread CPU time where available, else wall time, s.
+fn best<F: FnMut()>(mut f: F) -> f64 {
+    let mut best = f64::INFINITY;
+    for _ in 0..REPS {
+        let (t, c) = (Instant::now(), thread_cpu_s());
+        f();
+        let d = match (c, thread_cpu_s()) {
+            (Some(a), Some(b)) => b - a,
+            _ => t.elapsed().as_secs_f64(),
+        };
+        best = best.min(d);
+    }
+    best
+}
+
+/// Best of [`REPS`] runs of `f`, wall time, s.
+fn best_wall<F: FnMut()>(mut f: F) -> f64 {
+    let mut best = f64::INFINITY;
+    for _ in 0..REPS {
+        let t = Instant::now();
+        f();
+        best = best.min(t.elapsed().as_secs_f64());
+    }
+    best
+}
+
+fn main() {
+    // `--markdown PATH` (relative to the workspace root) also rewrites the section between
+    // `<!-- BEGIN replay-speed -->` and `<!-- END replay-speed -->` of PATH. `cargo bench`
+    // passes `--bench`, ignored.
+    let mut markdown: Option<PathBuf> = None;
+    let mut args = std::env::args().skip(1);
+    while let Some(a) = args.next() {
+        if a == "--markdown" {
+            markdown = args.next().map(PathBuf::from);
+        }
+    }
+    let scenario = Scenario::StillHour;
+    let rows: Vec<TraceRow> = simulate(scenario, None, 1);
+    let n = rows.len() as f64;
+    let mut w = TraceWriter::new(
+        Vec::new(),
+        host_tests::trace::TraceColumns { truth: true, ..Default::default() },
+    )
+    .unwrap();
+    for r in &rows {
+        w.row(r).unwrap();
+    }
+    let csv = w.finish().unwrap();
+    let cfg = replay_config(scenario);
+    let window = cfg.settings.init.window_s as f64;
+
+    let parse = best(|| {
+        let mut r = TraceReader::new(BufReader::with_capacity(1 << 16, &csv[..])).unwrap();
+        let mut k = 0usize;
+        while let Some(row) = r.next_row().unwrap() {
+            std::hint::black_box(row);
+            k += 1;
+        }
+        assert_eq!(k, rows.len());
+    });
+
+    let mut est: Vec<EstimateRow> = Vec::with_capacity(rows.len());
+    let filter = best(|| {
+        est.clear();
+        let mut f = cfg.make_filter(FilterKind::Ekf);
+        let mut cond = Conditioner::new(cfg.conditioning);
+        replay_rows(rows.iter().map(|r| Ok(*r)), f.as_mut(), &mut cond, window, |_, e| {
+            est.push(*e);
+            Ok(())
+        })
+        .unwrap();
+    });
+
+    let mut out_len = 0;
+    let format = best(|| {
+        let mut w = EstimateWriter::new(Vec::with_capacity(32 << 20)).unwrap();
+        for e in &est {
+            w.row(e).unwrap();
+        }
+        out_len = w.finish().unwrap().len();
+    });
+
+    let end_to_end = best_wall(|| {
+        let reader = TraceReader::new(BufReader::with_capacity(1 << 16, &csv[..])).unwrap();
+        let mut f = cfg.make_filter(FilterKind::Ekf);
+        let mut cond = Conditioner::new(cfg.conditioning);
+        let mut out = Vec::with_capacity(32 << 20);
+        let s = replay(reader, &mut out, f.as_mut(), &mut cond, window).unwrap();
+        assert_eq!(s.rows as usize, rows.len());
+    });
+
+    let ns = |s: f64| s * 1e9 / n;
+    let total = ns(parse) + ns(filter) + ns(format);
+    let clock = if thread_cpu_s().is_some() { "thread CPU time" } else { "wall time" };
+    let mut md = String::new();
+    let _ = writeln!(
+        md,
+        "Generated by `{COMMAND}`: {} rows of `{}` (seed 1), {} bytes of trace CSV in, {} bytes \
+         of estimate CSV out, default EKF, best of {REPS} runs ({clock} for the stages, wall \
+         time end to end). Machine-dependent: the figures vary from run to run.\n",
+        rows.len(),
+        scenario.name(),
+        csv.len(),
+        out_len
+    );
+    let _ = writeln!(md, "| stage | ns/row | M rows/s |");
+    let _ = writeln!(md, "|---|---|---|");
+    for (name, v) in [
+        ("parse (`TraceReader`)", ns(parse)),
+        ("filter (`replay_rows`: conditioning, EKF, RMSE)", ns(filter)),
+        ("format (`EstimateWriter`)", ns(format)),
+        ("sum: one core doing everything", total),
+        ("`replay` end to end, memory to memory, 3 threads (wall)", ns(end_to_end)),
+    ] {
+        let _ = writeln!(md, "| {name} | {v:.0} | {:.2} |", 1e3 / v);
+    }
+    println!("{md}");
+    if let Some(path) = markdown {
+        let path = if path.is_relative() {
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(path)
+        } else {
+            path
+        };
+        let doc =
+            std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        let new = replace_section(&doc, SECTION, &md).unwrap_or_else(|| {
+            panic!("{}: no <!-- BEGIN {SECTION} --> ... <!-- END {SECTION} -->", path.display())
+        });
+        std::fs::write(&path, new).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        eprintln!("wrote the replay-speed section of {}", path.display());
+    }
+}

@@ -1,0 +1,50 @@
+//! Board glue used by the RTIC application in `main.rs` (bare-metal targets only): the clock
+//! tree, the ADC scan, USART transmission, the LSM303DLH's read schedule and the status LED.
+
+pub mod adc_scan;
+pub mod clocks;
+pub mod imu;
+pub mod led;
+pub mod uart_tx;
+
+use inemo_ahrs::adc::Averager;
+
+/// The I²C clock for fast mode with a 2:1 duty cycle at APB1 `pclk1_hz`: the highest at or
+/// below `board::I2C_FREQUENCY_HZ` that the HAL's integer divider reproduces exactly (the
+/// HAL rounds the divider down, i.e. the clock up: 32 MHz / (3 × 400 kHz) = 26.7 would run the
+/// bus at 410 kHz).
+pub fn i2c_clock_hz(pclk1_hz: u32, max_hz: u32) -> u32 {
+    let max_hz = max_hz.max(1);
+    let ccr = pclk1_hz.div_ceil(3 * max_hz).max(1);
+    pclk1_hz / (3 * ccr)
+}
+
+/// ADC frames the DMA interrupt hands to the filter task.
+#[derive(Clone, Debug, Default)]
+pub struct AdcShared {
+    /// Frames since the filter last took them.
+    pub averager: Averager,
+    /// Frames lost to late interrupts since then.
+    pub lost: u32,
+    /// DMA transfer errors since then.
+    pub errors: u32,
+}
+
+impl AdcShared {
+    /// Adds what one DMA interrupt delivered.
+    pub fn record(&mut self, serviced: &adc_scan::Serviced) {
+        if let Some(frame) = &serviced.frame {
+            self.averager.push(frame);
+        }
+        self.lost = self.lost.saturating_add(serviced.lost);
+        if serviced.error {
+            self.errors = self.errors.saturating_add(1);
+        }
+    }
+
+    /// Everything accumulated, leaving this empty (a copy of a few dozen bytes: cheap under
+    /// the lock; the mean is computed outside it).
+    pub fn take(&mut self) -> AdcShared {
+        core::mem::take(self)
+    }
+}

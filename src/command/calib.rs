@@ -1,0 +1,227 @@
+//! The calibration state machines: static gyro bias (`GBIAS`) and one accelerometer position
+//! (`ACAL,<position>`). Both collect samples for a set time and check that the board was
+//! still: a sample far from the running mean fails at once ("motion"), and at the end the
+//! spread must be within the rest-detection thresholds of the settings.
+
+use ekf_core::accel_calibration::Position;
+use ekf_core::mathf;
+
+use crate::pipeline::PipelineSettings;
+
+/// Running mean and variance of three channels (Welford, `f64`).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Stats3 {
+    n: u32,
+    mean: [f64; 3],
+    m2: [f64; 3],
+}
+
+impl Stats3 {
+    /// Add one sample.
+    pub fn push(&mut self, v: [f32; 3]) {
+        self.n = self.n.saturating_add(1);
+        let n = f64::from(self.n);
+        for ((m, s), &x) in self.mean.iter_mut().zip(self.m2.iter_mut()).zip(v.iter()) {
+            let x = f64::from(x);
+            let d = x - *m;
+            *m += d / n;
+            *s += d * (x - *m);
+        }
+    }
+
+    /// Number of samples.
+    pub fn count(&self) -> u32 {
+        self.n
+    }
+
+    /// Mean per channel.
+    pub fn mean(&self) -> [f32; 3] {
+        self.mean.map(|m| m as f32)
+    }
+
+    /// Sample variance per channel (0 with fewer than two samples).
+    pub fn variance(&self) -> [f64; 3] {
+        let d = f64::from(self.n.saturating_sub(1).max(1));
+        self.m2.map(|s| if self.n > 1 { s / d } else { 0.0 })
+    }
+
+    /// True when `v` is more than `k` times `sigma[i]` from the mean on some channel (after
+    /// at least 10 samples).
+    fn outlier(&self, v: [f32; 3], sigma: [f64; 3], k: f64) -> bool {
+        self.n >= 10
+            && v.iter().zip(self.mean.iter()).zip(sigma.iter()).any(|((&x, &m), &s)| {
+                let d = f64::from(x) - m;
+                !(d.abs() <= k * s)
+            })
+    }
+
+    /// True when every channel's standard deviation is within `sigma`.
+    fn within(&self, sigma: [f64; 3]) -> bool {
+        self.variance().iter().zip(sigma.iter()).all(|(&v, &s)| v <= s * s)
+    }
+}
+
+/// How a calibration ended.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum CalEnd {
+    /// Still collecting.
+    Running,
+    /// Done: the mean (gyro: rad/s, body FRD; accelerometer: g, sensor axes).
+    Done([f32; 3]),
+    /// The board moved.
+    Motion,
+    /// No usable sample (sensor missing or saturated throughout).
+    Sensor,
+    /// The accelerometer mean does not point along the requested position.
+    WrongPosition,
+}
+
+/// A sample further than this many allowed standard deviations from the mean is motion.
+const OUTLIER_SIGMAS: f64 = 8.0;
+/// Smallest allowed gyro standard deviation, rad/s (0.01 °/s), whatever the noise settings.
+const GYRO_SIGMA_FLOOR: f64 = 0.01 * core::f64::consts::PI / 180.0;
+/// Smallest allowed accelerometer standard deviation, g.
+const ACCEL_SIGMA_FLOOR: f64 = 0.002;
+
+/// Allowed gyro standard deviation per body axis, rad/s: `sqrt(rest.gyro_var_factor ·
+/// noise.gyro_var · filter_rate / noise.gyro_ref_rate)`, at least 0.01 °/s.
+pub fn gyro_sigma(s: &PipelineSettings) -> [f64; 3] {
+    let n = &s.filter.noise;
+    let rate_ratio = f64::from(s.filter_rate_hz.max(1)) / f64::from(n.gyro_ref_rate_hz.max(1e-3));
+    let factor = f64::from(s.filter.rest.gyro_var_factor);
+    n.gyro_var.to_array().map(|v| {
+        let sd = mathf::sqrt((factor * f64::from(v) * rate_ratio) as f32);
+        f64::from(sd).max(GYRO_SIGMA_FLOOR)
+    })
+}
+
+/// Allowed accelerometer standard deviation per axis, g: `rest.accel_std_max`, at least
+/// 0.002 g.
+pub fn accel_sigma(s: &PipelineSettings) -> [f64; 3] {
+    [f64::from(s.filter.rest.accel_std_max_g).max(ACCEL_SIGMA_FLOOR); 3]
+}
+
+/// Static gyro-bias calibration: the mean body-frame gyro (axis map applied, offset not
+/// subtracted) over `duration_s`, the board still.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GyroBiasCal {
+    /// Collection time, s.
+    pub duration_s: f32,
+    elapsed_s: f32,
+    gyro: Stats3,
+    accel: Stats3,
+}
+
+impl GyroBiasCal {
+    /// Start collecting for `duration_s`.
+    pub fn new(duration_s: f32) -> Self {
+        GyroBiasCal {
+            duration_s,
+            elapsed_s: 0.0,
+            gyro: Stats3::default(),
+            accel: Stats3::default(),
+        }
+    }
+
+    /// One filter cycle: `gyro` in rad/s, body FRD, before the offset (`None` when missing
+    /// or saturated), `accel_g` the accelerometer in g (any axes).
+    pub fn push(
+        &mut self,
+        dt: f32,
+        gyro: Option<[f32; 3]>,
+        accel_g: Option<[f32; 3]>,
+        s: &PipelineSettings,
+    ) -> CalEnd {
+        let (gs, as_) = (gyro_sigma(s), accel_sigma(s));
+        let finite = |v: &[f32; 3]| v.iter().all(|x| x.is_finite());
+        if let Some(g) = gyro.filter(finite) {
+            if self.gyro.outlier(g, gs, OUTLIER_SIGMAS) {
+                return CalEnd::Motion;
+            }
+            self.gyro.push(g);
+        }
+        if let Some(a) = accel_g.filter(finite) {
+            if self.accel.outlier(a, as_, OUTLIER_SIGMAS) {
+                return CalEnd::Motion;
+            }
+            self.accel.push(a);
+        }
+        let dt = if dt.is_finite() && dt > 0.0 { dt } else { 0.0 };
+        self.elapsed_s += dt;
+        // Done at the sample nearest to the duration.
+        if self.elapsed_s + 0.5 * dt < self.duration_s {
+            return CalEnd::Running;
+        }
+        if self.gyro.count() < 10 {
+            return CalEnd::Sensor;
+        }
+        if !self.gyro.within(gs) || !self.accel.within(as_) {
+            return CalEnd::Motion;
+        }
+        CalEnd::Done(self.gyro.mean())
+    }
+}
+
+/// One position of the six-position accelerometer calibration: the mean raw accelerometer
+/// (g, sensor axes) over `duration_s`, the board still.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AccelPositionCal {
+    /// The position being measured.
+    pub position: Position,
+    /// Collection time, s.
+    pub duration_s: f32,
+    elapsed_s: f32,
+    accel: Stats3,
+}
+
+impl AccelPositionCal {
+    /// Start collecting `position` for `duration_s`.
+    pub fn new(position: Position, duration_s: f32) -> Self {
+        AccelPositionCal { position, duration_s, elapsed_s: 0.0, accel: Stats3::default() }
+    }
+
+    /// One filter cycle: `accel_g` the raw accelerometer, g, sensor axes.
+    pub fn push(&mut self, dt: f32, accel_g: Option<[f32; 3]>, s: &PipelineSettings) -> CalEnd {
+        let sigma = accel_sigma(s);
+        if let Some(a) = accel_g.filter(|a| a.iter().all(|v| v.is_finite())) {
+            if self.accel.outlier(a, sigma, OUTLIER_SIGMAS) {
+                return CalEnd::Motion;
+            }
+            self.accel.push(a);
+        }
+        let dt = if dt.is_finite() && dt > 0.0 { dt } else { 0.0 };
+        self.elapsed_s += dt;
+        // Done at the sample nearest to the duration.
+        if self.elapsed_s + 0.5 * dt < self.duration_s {
+            return CalEnd::Running;
+        }
+        if self.accel.count() < 10 {
+            return CalEnd::Sensor;
+        }
+        if !self.accel.within(sigma) {
+            return CalEnd::Motion;
+        }
+        let mean = self.accel.mean();
+        if Position::classify(ekf_core::Vec3::from_array(mean)) != Some(self.position) {
+            return CalEnd::WrongPosition;
+        }
+        CalEnd::Done(mean)
+    }
+}
+
+/// Position names on the command line, in [`Position::ALL`] order.
+pub const POSITION_NAMES: [&str; 6] = ["XUP", "XDOWN", "YUP", "YDOWN", "ZUP", "ZDOWN"];
+
+/// The position called `name` (case-insensitive).
+pub fn position_by_name(name: &str) -> Option<Position> {
+    POSITION_NAMES
+        .iter()
+        .zip(Position::ALL.iter())
+        .find(|(n, _)| n.eq_ignore_ascii_case(name))
+        .map(|(_, p)| *p)
+}
+
+/// The command-line name of `p`.
+pub fn position_name(p: Position) -> &'static str {
+    POSITION_NAMES.get(p.index()).copied().unwrap_or("?")
+}

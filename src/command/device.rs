@@ -1,0 +1,702 @@
+//! The device state and the command executor.
+
+use ekf_core::accel_calibration::SixPositionFit;
+use ekf_core::{mathf, ImuSample};
+
+use super::calib::{self, AccelPositionCal, CalEnd, GyroBiasCal};
+use super::line::LineEvent;
+use super::raw;
+use super::reply::{Detail, Out, Reason};
+use crate::adc::DepthReading;
+use crate::nmea::{self, NmeaError, Sentence};
+use crate::persist::{self, Flash, Loaded, SaveError, Source};
+use crate::pipeline::{Inputs, PipelineSettings};
+use crate::registry::{self, number, Kind, Setting, Value, ValueError, SETTINGS};
+
+/// Firmware version reported by `VER`.
+pub const VERSION: &str = env!("CARGO_PKG_VERSION");
+
+/// Most comma-separated fields of a command (address and verb included).
+const MAX_FIELDS: usize = 8;
+
+/// `GBIAS` duration range, s.
+pub const GBIAS_RANGE_S: (f64, f64) = (1.0, 600.0);
+/// `ACAL,<position>` duration range and default, s.
+pub const ACAL_RANGE_S: (f64, f64) = (0.5, 60.0);
+/// Default `ACAL,<position>` duration, s.
+pub const ACAL_DEFAULT_S: f32 = 2.0;
+/// `YAW` range, degrees.
+pub const YAW_RANGE_DEG: (f64, f64) = (-360.0, 360.0);
+/// A depth reading older than this many seconds is too old for `ZERO`.
+pub const DEPTH_MAX_AGE_S: f32 = 1.0;
+
+/// `STATUS` flag: no valid settings record at the last load (boot or `LOAD`): defaults.
+pub const STATUS_NO_RECORD: u16 = 1 << 0;
+/// `STATUS` flag: the settings differ from the last loaded or saved ones.
+pub const STATUS_UNSAVED: u16 = 1 << 1;
+/// `STATUS` flag: raw streaming on.
+pub const STATUS_RAW: u16 = 1 << 2;
+/// `STATUS` flag: a gyro-bias calibration is running.
+pub const STATUS_GBIAS: u16 = 1 << 3;
+/// `STATUS` flag: an accelerometer position is being collected.
+pub const STATUS_ACAL: u16 = 1 << 4;
+/// `STATUS` flag: the loaded record had entries that were skipped (unknown or invalid).
+pub const STATUS_SKIPPED: u16 = 1 << 5;
+/// `STATUS` flag: the loaded record lacked settings (they have their defaults).
+pub const STATUS_MISSING: u16 = 1 << 6;
+
+/// Something the application must do for a command (things that need the pipeline or the
+/// hardware, which the executor does not own).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Action {
+    /// The settings changed: `pipeline.apply_settings(*device.settings())`. When
+    /// `filter_rate_changed`, the filter task must also change its period.
+    ApplySettings {
+        /// `filter.rate` changed.
+        filter_rate_changed: bool,
+    },
+    /// Set the yaw now, rad: `pipeline.ekf_mut().set_yaw(yaw)`.
+    SetYaw(f32),
+}
+
+/// What a command produced.
+#[derive(Clone, Debug, Default)]
+pub struct Response {
+    /// The reply to send; `None` for lines that are not commands for this device (other
+    /// talkers, echoes of our own sentences).
+    pub reply: Option<Sentence>,
+    /// What the application must do, if anything.
+    pub action: Option<Action>,
+}
+
+/// What a filter cycle produced.
+#[derive(Clone, Debug, Default)]
+pub struct CycleOutput {
+    /// A late reply: a calibration finished or failed.
+    pub reply: Option<Sentence>,
+    /// What the application must do (a calibration changed the settings).
+    pub action: Option<Action>,
+    /// Raw streaming sentences of this cycle (`$PINAW`, then `$PINAX` when the magnetometer
+    /// or the depth was read), in raw mode.
+    pub raw: [Option<Sentence>; 2],
+}
+
+impl CycleOutput {
+    /// The raw sentences, in sending order.
+    pub fn raw_sentences(&self) -> impl Iterator<Item = &Sentence> {
+        self.raw.iter().flatten()
+    }
+}
+
+/// The verbs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Verb {
+    Yaw,
+    Yaw0,
+    Zero,
+    Gbias,
+    Acal,
+    Abort,
+    Rate,
+    Sent,
+    Raw,
+    Get,
+    Set,
+    List,
+    Save,
+    Load,
+    Reset,
+    Ver,
+    Status,
+}
+
+/// Every verb with its name, for lookup.
+const VERBS: [(&str, Verb); 17] = [
+    ("YAW", Verb::Yaw),
+    ("YAW0", Verb::Yaw0),
+    ("ZERO", Verb::Zero),
+    ("GBIAS", Verb::Gbias),
+    ("ACAL", Verb::Acal),
+    ("ABORT", Verb::Abort),
+    ("RATE", Verb::Rate),
+    ("SENT", Verb::Sent),
+    ("RAW", Verb::Raw),
+    ("GET", Verb::Get),
+    ("SET", Verb::Set),
+    ("LIST", Verb::List),
+    ("SAVE", Verb::Save),
+    ("LOAD", Verb::Load),
+    ("RESET", Verb::Reset),
+    ("VER", Verb::Ver),
+    ("STATUS", Verb::Status),
+];
+
+/// Names of every verb (for documentation checks).
+pub fn verb_names() -> impl Iterator<Item = &'static str> {
+    VERBS.iter().map(|(n, _)| *n)
+}
+
+impl Verb {
+    fn name(self) -> &'static str {
+        VERBS.iter().find(|(_, v)| *v == self).map(|(n, _)| *n).unwrap_or("?")
+    }
+}
+
+/// A command's failure: the reason and optional detail of the `ERR` reply.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Fail(Reason, Detail);
+
+impl From<Reason> for Fail {
+    fn from(r: Reason) -> Self {
+        Fail(r, Detail::None)
+    }
+}
+
+type CmdResult = Result<(Out, Option<Action>), Fail>;
+
+/// The operating state of the device: the settings in use, where they came from, the
+/// calibration state machines and the raw-streaming switch. Commands go through
+/// [`Device::execute`]; every filter cycle through [`Device::on_cycle`].
+///
+/// Every command is parsed and validated completely before anything changes: a command
+/// answered with `ERR` changes nothing.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Device {
+    settings: PipelineSettings,
+    source: Source,
+    no_record: bool,
+    load_skipped: u16,
+    load_missing: u16,
+    dirty: bool,
+    reset_cause: &'static str,
+    raw: bool,
+    gbias: Option<GyroBiasCal>,
+    acal: Option<AccelPositionCal>,
+    fit: SixPositionFit,
+    depth: Option<DepthReading>,
+    depth_age_s: f32,
+    clock_us: u64,
+}
+
+impl Device {
+    /// The device after loading the settings at boot (`persist::load`). `reset_cause` is
+    /// reported by `STATUS` (printable ASCII without `$*!\^~,`, at most 16 characters, else
+    /// `?`).
+    pub fn new(loaded: &Loaded, reset_cause: &'static str) -> Self {
+        Device {
+            settings: loaded.settings,
+            source: loaded.source,
+            no_record: loaded.source == Source::Defaults,
+            load_skipped: loaded.skipped,
+            load_missing: loaded.missing,
+            dirty: false,
+            reset_cause,
+            raw: false,
+            gbias: None,
+            acal: None,
+            fit: SixPositionFit::new(),
+            depth: None,
+            depth_age_s: f32::INFINITY,
+            clock_us: 0,
+        }
+    }
+
+    /// The settings in use (the pipeline must run with these: apply them after every
+    /// [`Action::ApplySettings`]).
+    pub fn settings(&self) -> &PipelineSettings {
+        &self.settings
+    }
+
+    /// Where the settings came from.
+    pub fn source(&self) -> Source {
+        self.source
+    }
+
+    /// True in raw streaming mode (the application sends [`CycleOutput::raw`] instead of the
+    /// attitude sentences).
+    pub fn raw_mode(&self) -> bool {
+        self.raw
+    }
+
+    /// The `STATUS` flags ([`STATUS_NO_RECORD`], ...).
+    pub fn status_flags(&self) -> u16 {
+        let mut f = 0;
+        let mut set = |cond: bool, bit: u16| {
+            if cond {
+                f |= bit;
+            }
+        };
+        set(self.no_record, STATUS_NO_RECORD);
+        set(self.dirty, STATUS_UNSAVED);
+        set(self.raw, STATUS_RAW);
+        set(self.gbias.is_some(), STATUS_GBIAS);
+        set(self.acal.is_some(), STATUS_ACAL);
+        set(self.load_skipped > 0, STATUS_SKIPPED);
+        set(self.load_missing > 0, STATUS_MISSING);
+        f
+    }
+
+    /// The reply to a [`LineEvent`]: [`Device::execute`] for a line, [`Device::too_long`]
+    /// for an overflow.
+    pub fn handle<F: Flash>(&mut self, event: &LineEvent, flash: &mut F) -> Response {
+        match event {
+            LineEvent::Line(line) => self.execute(line.as_bytes(), flash),
+            LineEvent::TooLong => Response { reply: Some(Self::too_long()), action: None },
+        }
+    }
+
+    /// The reply to a line that was too long: `$PINAR,ERR,?,too-long`.
+    pub fn too_long() -> Sentence {
+        Out::err("?", Reason::TooLong, Detail::None)
+    }
+
+    /// Execute one received line (`$PINAC,...*hh`, with or without the line end). Lines of
+    /// other talkers get no reply. `flash` is used by `SAVE` and `LOAD` only.
+    pub fn execute<F: Flash>(&mut self, line: &[u8], flash: &mut F) -> Response {
+        let line = line
+            .strip_suffix(b"\r\n")
+            .or_else(|| line.strip_suffix(b"\n"))
+            .or_else(|| line.strip_suffix(b"\r"))
+            .unwrap_or(line);
+        let ours = line.starts_with(b"$PINAC") && matches!(line.get(6), Some(b',' | b'*'));
+        if !ours {
+            return Response::default();
+        }
+        let body = match nmea::verify(line) {
+            Ok(body) => body,
+            Err(e) => {
+                let reason = match e {
+                    NmeaError::BadChecksum { .. } => Reason::Checksum,
+                    NmeaError::TooLong => Reason::TooLong,
+                    _ => Reason::Format,
+                };
+                return Response { reply: Some(Out::err("?", reason, Detail::None)), action: None };
+            }
+        };
+        let mut fields = [""; MAX_FIELDS];
+        let mut n = 0;
+        for f in body.split(',') {
+            if let Some(slot) = fields.get_mut(n) {
+                *slot = f;
+            }
+            n += 1;
+        }
+        let verb_name = fields[1];
+        let Some(verb) = VERBS.iter().find(|(n, _)| n.eq_ignore_ascii_case(verb_name)).map(|v| v.1)
+        else {
+            let reply = Out::err("?", Reason::UnknownCommand, Detail::None);
+            return Response { reply: Some(reply), action: None };
+        };
+        let result = if n > MAX_FIELDS {
+            Err(Fail(Reason::Args, Detail::None))
+        } else {
+            let args = fields.get(2..n).unwrap_or(&[]);
+            self.run(verb, args, flash)
+        };
+        match result {
+            Ok((out, action)) => Response { reply: Some(out.finish()), action },
+            Err(Fail(reason, detail)) => {
+                Response { reply: Some(Out::err(verb.name(), reason, detail)), action: None }
+            }
+        }
+    }
+
+    fn run<F: Flash>(&mut self, verb: Verb, args: &[&str], flash: &mut F) -> CmdResult {
+        let name = verb.name();
+        let nargs = |n: usize| if args.len() == n { Ok(()) } else { Err(Fail::from(Reason::Args)) };
+        let arg = |i: usize| args.get(i).copied().unwrap_or("");
+        match verb {
+            Verb::Yaw => {
+                nargs(1)?;
+                let deg = parse_in(arg(0), YAW_RANGE_DEG)?;
+                let yaw = mathf::wrap_pi(mathf::deg(deg as f32));
+                let mut out = Out::ok(name);
+                out.num(deg);
+                Ok((out, Some(Action::SetYaw(yaw))))
+            }
+            Verb::Yaw0 => {
+                nargs(1)?;
+                self.set_values(name, None, &[("init.yaw0", args)])
+            }
+            Verb::Rate => {
+                nargs(1)?;
+                self.set_values(name, None, &[("output.rate", args)])
+            }
+            Verb::Sent => {
+                nargs(2)?;
+                let (a, b) = (args.get(..1).unwrap_or(&[]), args.get(1..2).unwrap_or(&[]));
+                self.set_values(name, None, &[("output.prdid", a), ("output.pinah", b)])
+            }
+            Verb::Set => {
+                let (Some(&setting_name), Some(value)) = (args.first(), args.get(1..)) else {
+                    return Err(Reason::Args.into());
+                };
+                if value.is_empty() {
+                    return Err(Reason::Args.into());
+                }
+                let setting = registry::find(setting_name).ok_or(Reason::UnknownSetting)?;
+                self.set_values(name, Some(setting.name), &[(setting.name, value)])
+            }
+            Verb::Get => {
+                nargs(1)?;
+                let setting = registry::find(arg(0)).ok_or(Reason::UnknownSetting)?;
+                let mut out = Out::ok(name);
+                out.field(setting.name);
+                out.value(setting, &setting.get(&self.settings));
+                Ok((out, None))
+            }
+            Verb::List => {
+                nargs(1)?;
+                let i = number::parse_uint(arg(0)).ok_or(Reason::Type)?;
+                let max = SETTINGS.len() - 1;
+                let setting = SETTINGS
+                    .get(i as usize)
+                    .ok_or(Fail(Reason::Range, Detail::Range(0.0, max as f64)))?;
+                let mut out = Out::ok(name);
+                out.uint(u64::from(i));
+                out.uint(SETTINGS.len() as u64);
+                out.field(setting.name);
+                out.field(setting.kind.name());
+                out.field(setting.unit);
+                Ok((out, None))
+            }
+            Verb::Raw => {
+                nargs(1)?;
+                let on = match arg(0) {
+                    "0" => false,
+                    "1" => true,
+                    _ => return Err(Reason::Type.into()),
+                };
+                self.raw = on;
+                let mut out = Out::ok(name);
+                out.field(if on { "1" } else { "0" });
+                Ok((out, None))
+            }
+            Verb::Zero => {
+                nargs(0)?;
+                let reading = match self.depth {
+                    Some(r) if self.depth_age_s <= DEPTH_MAX_AGE_S => r,
+                    _ => return Err(Reason::NoDepth.into()),
+                };
+                let mut new = self.settings;
+                if !new.depth.zero_at_surface(&reading) {
+                    return Err(Reason::NoDepth.into());
+                }
+                let setting = registry::find("depth.surface_pressure").ok_or(Reason::Range)?;
+                if !setting.check(&setting.get(&new)) {
+                    return Err(Fail(Reason::Range, Detail::Range(setting.min, setting.max)));
+                }
+                let action = self.commit(new);
+                let mut out = Out::ok(name);
+                out.num(f64::from(new.depth.surface_pressure_pa));
+                Ok((out, action))
+            }
+            Verb::Gbias => {
+                nargs(1)?;
+                let s = parse_in(arg(0), GBIAS_RANGE_S)?;
+                if self.gbias.is_some() {
+                    return Err(Reason::Busy.into());
+                }
+                self.gbias = Some(GyroBiasCal::new(s as f32));
+                let mut out = Out::ok(name);
+                out.field("RUN");
+                out.num(s);
+                Ok((out, None))
+            }
+            Verb::Acal => self.acal_command(args),
+            Verb::Abort => {
+                nargs(0)?;
+                if self.gbias.is_none() && self.acal.is_none() {
+                    return Err(Reason::NotRunning.into());
+                }
+                self.gbias = None;
+                self.acal = None;
+                Ok((Out::ok(name), None))
+            }
+            Verb::Save => {
+                nargs(0)?;
+                let saved = persist::save(flash, &self.settings).map_err(|e| match e {
+                    SaveError::TooLarge => Fail::from(Reason::TooLarge),
+                    SaveError::Flash(_) | SaveError::Verify => Fail::from(Reason::Flash),
+                })?;
+                self.source = Source::Flash { page: saved.page, seq: saved.seq };
+                self.dirty = false;
+                let mut out = Out::ok(name);
+                out.field(saved.page.name());
+                out.uint(u64::from(saved.seq));
+                Ok((out, None))
+            }
+            Verb::Load => {
+                nargs(0)?;
+                let loaded = persist::load(flash);
+                let Source::Flash { page, seq } = loaded.source else {
+                    return Err(Reason::NoRecord.into());
+                };
+                let action = self.commit(loaded.settings);
+                self.source = loaded.source;
+                self.no_record = false;
+                self.load_skipped = loaded.skipped;
+                self.load_missing = loaded.missing;
+                self.dirty = false;
+                let mut out = Out::ok(name);
+                out.field(page.name());
+                out.uint(u64::from(seq));
+                out.uint(u64::from(loaded.skipped));
+                out.uint(u64::from(loaded.missing));
+                Ok((out, action))
+            }
+            Verb::Reset => {
+                nargs(0)?;
+                let action = self.commit(PipelineSettings::default());
+                self.source = Source::Defaults;
+                Ok((Out::ok(name), action))
+            }
+            Verb::Ver => {
+                nargs(0)?;
+                let mut out = Out::ok(name);
+                out.field("inemo-ahrs");
+                out.field(VERSION);
+                out.uint(u64::from(persist::FORMAT_VERSION));
+                out.uint(SETTINGS.len() as u64);
+                Ok((out, None))
+            }
+            Verb::Status => {
+                nargs(0)?;
+                let mut out = Out::ok(name);
+                match self.source {
+                    Source::Defaults => {
+                        out.field("DEFAULTS");
+                        out.field("");
+                    }
+                    Source::Flash { page, seq } => {
+                        out.field(page.name());
+                        out.uint(u64::from(seq));
+                    }
+                }
+                let cause = self.reset_cause;
+                let printable =
+                    cause.len() <= 16 && cause.bytes().all(|b| nmea::is_body_byte(b) && b != b',');
+                out.field(if printable { cause } else { "?" });
+                out.hex(u32::from(self.status_flags()), 4);
+                let seen = self.fit.positions_seen();
+                let mask = seen.iter().enumerate().fold(0u32, |m, (i, s)| m | (u32::from(*s) << i));
+                out.hex(mask, 2);
+                Ok((out, None))
+            }
+        }
+    }
+
+    /// `ACAL,<position>[,<s>]`, `ACAL,FIT`, `ACAL,CLEAR`.
+    fn acal_command(&mut self, args: &[&str]) -> CmdResult {
+        let name = Verb::Acal.name();
+        let first = args.first().copied().ok_or(Reason::Args)?;
+        if first.eq_ignore_ascii_case("FIT") || first.eq_ignore_ascii_case("CLEAR") {
+            if args.len() != 1 {
+                return Err(Reason::Args.into());
+            }
+            let mut out = Out::ok(name);
+            if first.eq_ignore_ascii_case("CLEAR") {
+                self.fit.reset();
+                self.acal = None;
+                out.field("CLEAR");
+                return Ok((out, None));
+            }
+            let cal = self.fit.solve().map_err(|e| match e {
+                ekf_core::accel_calibration::FitError::TooFewSamples { .. }
+                | ekf_core::accel_calibration::FitError::MissingPositions { .. } => {
+                    let seen = self.fit.positions_seen().iter().filter(|s| **s).count();
+                    Fail(Reason::MissingPositions, Detail::Count(seen as u32))
+                }
+                _ => Fail::from(Reason::IllConditioned),
+            })?;
+            let mut new = self.settings;
+            new.conditioning.accel_calibration = cal;
+            for n in ["accel_cal.x", "accel_cal.y", "accel_cal.z", "accel_cal.o"] {
+                let s = registry::find(n).ok_or(Reason::Range)?;
+                if !s.check(&s.get(&new)) {
+                    return Err(Fail(Reason::Range, Detail::Range(s.min, s.max)));
+                }
+            }
+            let rms = self.fit.rms_residual_g(&cal).unwrap_or(f32::NAN);
+            let action = self.commit(new);
+            out.field("FIT");
+            out.num(f64::from(rms));
+            return Ok((out, action));
+        }
+        let position = calib::position_by_name(first).ok_or(Reason::Type)?;
+        let duration = match args.len() {
+            1 => ACAL_DEFAULT_S,
+            2 => parse_in(args.get(1).copied().unwrap_or(""), ACAL_RANGE_S)? as f32,
+            _ => return Err(Reason::Args.into()),
+        };
+        if self.acal.is_some() {
+            return Err(Reason::Busy.into());
+        }
+        self.acal = Some(AccelPositionCal::new(position, duration));
+        let mut out = Out::ok(name);
+        out.field("RUN");
+        out.field(calib::position_name(position));
+        out.num(f64::from(duration));
+        Ok((out, None))
+    }
+
+    /// Parse and validate values for named settings, all before changing anything, then
+    /// commit them together. The reply is `OK,<verb>,<values...>`.
+    fn set_values(
+        &mut self,
+        verb: &'static str,
+        label: Option<&str>,
+        items: &[(&str, &[&str])],
+    ) -> CmdResult {
+        let mut new = self.settings;
+        let mut out = Out::ok(verb);
+        if let Some(label) = label {
+            out.field(label);
+        }
+        for (name, fields) in items {
+            let setting = registry::find(name).ok_or(Reason::UnknownSetting)?;
+            let value = setting.parse(fields).map_err(|e| value_fail(setting, e))?;
+            if !setting.set(&mut new, value) {
+                return Err(Fail(Reason::Range, range_detail(setting)));
+            }
+            out.value(setting, &setting.get(&new));
+        }
+        let action = self.commit(new);
+        Ok((out, action))
+    }
+
+    /// Make `new` the settings; an action when they changed.
+    fn commit(&mut self, new: PipelineSettings) -> Option<Action> {
+        if new == self.settings {
+            return None;
+        }
+        let filter_rate_changed = new.filter_rate_hz != self.settings.filter_rate_hz;
+        self.settings = new;
+        self.dirty = true;
+        Some(Action::ApplySettings { filter_rate_changed })
+    }
+
+    /// Feed one filter cycle: `inputs` as given to `Pipeline::step`, `sample` from
+    /// `Pipeline::conditioned_sample(inputs)` (used only in raw mode; pass any sample
+    /// otherwise). Runs the calibrations, keeps the latest depth reading for `ZERO` and
+    /// builds the raw sentences.
+    pub fn on_cycle(&mut self, inputs: &Inputs, sample: &ImuSample) -> CycleOutput {
+        let mut out = CycleOutput::default();
+        let dt = inputs.dt;
+        if dt.is_finite() && dt > 0.0 {
+            self.clock_us = self.clock_us.wrapping_add((f64::from(dt) * 1e6 + 0.5) as u64);
+            self.depth_age_s += dt;
+        }
+        let s = self.settings;
+        let mut depth_m = None;
+        let mut gyro_body = None;
+        if let Some(mean) = inputs.adc {
+            let r = s.depth.reading(&mean, &s.adc);
+            if !r.at_rail && r.pressure_pa.is_finite() && r.depth_m.is_finite() {
+                self.depth = Some(r);
+                self.depth_age_s = 0.0;
+                depth_m = Some(r.depth_m);
+            }
+            let g = s.gyro.rates(&mean);
+            let body = s.conditioning.gyro_axes.apply(g.rate_vec3());
+            if !g.saturated && body.is_finite() {
+                gyro_body = Some(body.to_array());
+            }
+        }
+
+        if let Some(mut cal) = self.gbias {
+            let end = cal.push(dt, gyro_body, inputs.accel_g, &s);
+            self.gbias = if end == CalEnd::Running { Some(cal) } else { None };
+            match end {
+                CalEnd::Running => {}
+                CalEnd::Done(bias) => {
+                    let setting = registry::find("gyro.offset");
+                    let mut new = s;
+                    match setting {
+                        Some(st) if st.set(&mut new, Value::Vec3(bias)) => {
+                            let mut o = Out::ok(Verb::Gbias.name());
+                            o.field("DONE");
+                            o.value(st, &st.get(&new));
+                            out.reply = Some(o.finish());
+                            out.action = self.commit(new);
+                        }
+                        _ => {
+                            let d = setting.map(range_detail).unwrap_or(Detail::None);
+                            out.reply = Some(Out::err(Verb::Gbias.name(), Reason::Range, d));
+                        }
+                    }
+                }
+                other => {
+                    out.reply = Some(Out::err(Verb::Gbias.name(), end_reason(other), Detail::None))
+                }
+            }
+        }
+
+        if let Some(mut cal) = self.acal {
+            let end = cal.push(dt, inputs.accel_g, &s);
+            self.acal = if end == CalEnd::Running { Some(cal) } else { None };
+            let reply = match end {
+                CalEnd::Running => None,
+                CalEnd::Done(mean) => {
+                    self.fit.add_position(cal.position, ekf_core::Vec3::from_array(mean));
+                    let mut o = Out::ok(Verb::Acal.name());
+                    o.field("DONE");
+                    o.field(calib::position_name(cal.position));
+                    for m in mean {
+                        o.num(f64::from(m));
+                    }
+                    o.uint(self.fit.positions_seen().iter().filter(|s| **s).count() as u64);
+                    Some(o.finish())
+                }
+                other => Some(Out::err(Verb::Acal.name(), end_reason(other), Detail::None)),
+            };
+            // Two calibrations ending in the same cycle: the accelerometer's reply waits for
+            // none; the gyro's is sent first and this one replaces nothing.
+            if out.reply.is_none() {
+                out.reply = reply;
+            }
+        }
+
+        if self.raw {
+            out.raw[0] = raw::pinaw(self.clock_us, sample).ok();
+            if sample.mag.is_some() || depth_m.is_some() {
+                out.raw[1] =
+                    raw::pinax(self.clock_us, sample.mag.map(|m| m.to_array()), depth_m).ok();
+            }
+        }
+        out
+    }
+}
+
+fn end_reason(end: CalEnd) -> Reason {
+    match end {
+        CalEnd::Motion => Reason::Motion,
+        CalEnd::WrongPosition => Reason::Position,
+        _ => Reason::Sensor,
+    }
+}
+
+/// Parse a number in `[lo, hi]`.
+fn parse_in(text: &str, (lo, hi): (f64, f64)) -> Result<f64, Fail> {
+    let v = number::parse_number(text).ok_or(Reason::Type)?;
+    if v.is_finite() && v >= lo && v <= hi {
+        Ok(v)
+    } else {
+        Err(Fail(Reason::Range, Detail::Range(lo, hi)))
+    }
+}
+
+fn range_detail(s: &Setting) -> Detail {
+    match s.kind {
+        Kind::F32 | Kind::Vec3 | Kind::U16 => Detail::Range(s.min, s.max),
+        Kind::Bool | Kind::Axes => Detail::None,
+    }
+}
+
+fn value_fail(s: &Setting, e: ValueError) -> Fail {
+    match e {
+        ValueError::Args => Fail(Reason::Args, Detail::Count(s.kind.fields() as u32)),
+        ValueError::Type => Fail(Reason::Type, Detail::Kind(s.kind.name())),
+        ValueError::Range => Fail(Reason::Range, range_detail(s)),
+    }
+}

@@ -1,0 +1,372 @@
+//! The iNEMO V2 firmware: an RTIC 2 application for the STM32F103RE that moves data between
+//! the board's peripherals and the library's [`Pipeline`](inemo_ahrs::pipeline::Pipeline).
+//!
+//! Tasks (priority: higher preempts lower):
+//!
+//! | task | kind | prio | does |
+//! |---|---|---|---|
+//! | `adc_frame` | hardware, DMA1_CHANNEL1 | 3 | copies the finished ADC frame (1 kHz) into the shared `Averager` |
+//! | `filter` | async, every 1/filter_rate_hz (SysTick monotonic) | 2 | reads the LSM303DLH, takes the ADC mean, runs `Pipeline::step`, starts the USART DMA |
+//! | `blink` | async, 50 ms slots | 1 | LED pattern from the status the filter reported |
+//!
+//! Messages: `adc_frame` → `filter` through the shared [`AdcShared`](app::AdcShared) (frames
+//! averaged in place, lost frames and DMA errors counted); `filter` → `blink` through the
+//! shared [`Health`](app::led::Health) (union of the cycles' status words and a cycle count).
+//! TIM3 triggers the ADC scans in hardware; DMA1 channel 7 sends the sentences without the CPU.
+//!
+//! Nothing on the running path unwraps or panics: sensor and bus errors become status bits
+//! (`$PINAH` bits 16–19) and LED patterns. `expect` appears only in `init`, for programming
+//! errors (a task spawned twice, an impossible timer rate).
+//!
+//! On the host this builds to a stub that says how to build the firmware.
+#![cfg_attr(target_os = "none", no_std, no_main)]
+
+#[cfg(all(target_os = "none", not(feature = "board")))]
+compile_error!("the firmware needs the `board` feature (on by default)");
+
+#[cfg(all(target_os = "none", feature = "board"))]
+mod app;
+
+#[cfg(not(target_os = "none"))]
+fn main() {
+    eprintln!(
+        "inemo-ahrs is firmware for the STM32F103RE (iNEMO V2 board): build it for \
+         thumbv7m-none-eabi with `scripts/cargo-thumb build --release`"
+    );
+    std::process::exit(1);
+}
+
+#[cfg(all(target_os = "none", feature = "board"))]
+use {defmt_rtt as _, panic_probe as _};
+
+#[cfg(all(target_os = "none", feature = "board"))]
+#[rtic::app(device = stm32f1xx_hal::pac, dispatchers = [UART4, UART5])]
+mod firmware {
+    use core::num::NonZeroU32;
+
+    use cortex_m::peripheral::DWT;
+    use inemo_ahrs::{
+        adc::SCAN_LEN,
+        board,
+        nmea::{NmeaError, Sentence, Status},
+        pipeline::{Inputs, Pipeline, PipelineSettings},
+    };
+    use rtic_monotonics::{fugit::MonotonicTimerInstant, systick::prelude::*};
+    use stm32f1xx_hal::{
+        dma::DmaExt,
+        gpio::{GpioExt, Output, PinState, PushPull, PB9},
+        i2c::{BlockingI2c, DutyCycle, Mode},
+        serial::{Config, Serial},
+        time::{Bps, Hertz},
+    };
+
+    use crate::app::{
+        adc_scan::{self, AdcPins, AdcScan},
+        clocks::{self, ClockSource, ResetCause},
+        i2c_clock_hz,
+        imu::{self, Imu},
+        led::{self, Health},
+        uart_tx::{DmaTx, TX_BUF_LEN},
+        AdcShared,
+    };
+
+    /// SysTick rate of the monotonic, Hz (the literal in `systick_monotonic!` must match).
+    const MONO_HZ: u32 = 10_000;
+    systick_monotonic!(Mono, 10_000);
+    type Instant = MonotonicTimerInstant<u32, 10_000>;
+
+    /// Time the gyros get after leaving power-down before the filter starts (LPR430AL and
+    /// LY330ALH turn-on time is a few hundred ms); ADC frames of that time are discarded.
+    const GYRO_SETTLE_MS: u32 = 500;
+
+    /// The pipeline's settings: `PipelineSettings::default()` (50 Hz filter, 10 Hz output).
+    /// Set `filter_rate_hz` here for another rate (up to 200 Hz); everything follows it.
+    fn settings() -> PipelineSettings {
+        PipelineSettings::default()
+    }
+
+    #[shared]
+    struct Shared {
+        adc: AdcShared,
+        health: Health,
+    }
+
+    #[local]
+    struct Local {
+        adc_scan: AdcScan,
+        imu: Imu,
+        pipeline: Pipeline,
+        tx: DmaTx,
+        led: PB9<Output<PushPull>>,
+        sysclk_hz: u32,
+    }
+
+    #[init(local = [
+        adc_buf: [[u16; SCAN_LEN]; 2] = [[0; SCAN_LEN]; 2],
+        tx_buf: [u8; TX_BUF_LEN] = [0; TX_BUF_LEN],
+    ])]
+    fn init(cx: init::Context) -> (Shared, Local) {
+        let mut core = cx.core;
+        let dp = cx.device;
+
+        // The cycle counter: filter timing, and BlockingI2c's timeouts depend on it.
+        core.DCB.enable_trace();
+        core.DWT.enable_cycle_counter();
+
+        let reset = clocks::take_reset_cause(&dp.RCC);
+        let (mut rcc, source) = clocks::freeze(dp.RCC, dp.FLASH);
+        let clocks = rcc.clocks;
+        let sysclk_hz = clocks.sysclk().raw();
+        // Asserts that SYSCLK is a multiple of the tick rate: 72 and 64 MHz both are, so a
+        // failure is a programming error.
+        Mono::start(core.SYST, sysclk_hz);
+
+        let mut gpioa = dp.GPIOA.split(&mut rcc);
+        let mut gpiob = dp.GPIOB.split(&mut rcc);
+        let mut gpioc = dp.GPIOC.split(&mut rcc);
+
+        // Gyros out of power-down, self-test off. The pins keep their mode when dropped.
+        let _lpr_pd = gpiob.pb5.into_push_pull_output_with_state(&mut gpiob.crl, PinState::Low);
+        let _ly_pd = gpiob.pb15.into_push_pull_output_with_state(&mut gpiob.crh, PinState::Low);
+        let _lpr_st = gpiob.pb1.into_push_pull_output_with_state(&mut gpiob.crl, PinState::Low);
+        let _ly_st = gpiob.pb14.into_push_pull_output_with_state(&mut gpiob.crh, PinState::Low);
+        let led = gpiob.pb9.into_push_pull_output_with_state(&mut gpiob.crh, PinState::High);
+
+        let dma1 = dp.DMA1.split(&mut rcc);
+
+        // USART2: TX PA2 by DMA1 channel 7; RX PA3 (commands: not yet).
+        let usart2_dr = dp.USART2.dr().as_ptr() as u32;
+        let serial = Serial::new(
+            dp.USART2,
+            (gpioa.pa2.into_alternate_push_pull(&mut gpioa.crl), gpioa.pa3),
+            Config::default().baudrate(Bps(board::USART_BAUD)),
+            &mut rcc,
+        );
+        let (tx, _rx) = serial.split();
+        let mut tx = DmaTx::new(tx.with_dma(dma1.7), cx.local.tx_buf, usart2_dr);
+
+        // I²C2 (PB10 SCL, PB11 SDA), fast mode, every transfer bounded in time.
+        let i2c_hz = i2c_clock_hz(clocks.pclk1().raw(), board::I2C_FREQUENCY_HZ);
+        let i2c = BlockingI2c::new(
+            dp.I2C2,
+            (gpiob.pb10, gpiob.pb11),
+            Mode::fast(Hertz::from_raw(i2c_hz), DutyCycle::Ratio2to1),
+            &mut rcc,
+            imu::START_TIMEOUT_US,
+            imu::START_RETRIES,
+            imu::ADDR_TIMEOUT_US,
+            imu::DATA_TIMEOUT_US,
+        );
+        let settings = settings();
+        let mut imu = Imu::new(i2c, settings.filter_rate_hz);
+        // A failure here is not fatal: the filter retries once per second meanwhile.
+        let imu_error = imu.configure().err();
+
+        // ADC1 scan of the six channels, TIM3-triggered, by DMA1 channel 1.
+        let pins = AdcPins(
+            gpioc.pc0.into_analog(&mut gpioc.crl),
+            gpioc.pc1.into_analog(&mut gpioc.crl),
+            gpioc.pc2.into_analog(&mut gpioc.crl),
+            gpioc.pc4.into_analog(&mut gpioc.crl),
+            gpioc.pc5.into_analog(&mut gpioc.crl),
+            gpioa.pa1.into_analog(&mut gpioa.crl),
+        );
+        let adc_scan = adc_scan::start(dp.ADC1, dp.TIM3, pins, dma1.1, cx.local.adc_buf, &mut rcc);
+
+        defmt::println!(
+            "inemo-ahrs {=str}: {} SYSCLK {=u32} Hz, reset {}, I2C {=u32} Hz, filter {=u16} Hz, ADC {=u32} Hz",
+            env!("CARGO_PKG_VERSION"),
+            source,
+            sysclk_hz,
+            reset,
+            i2c_hz,
+            settings.filter_rate_hz,
+            adc_scan::FRAME_HZ
+        );
+        match imu_error {
+            None => defmt::println!(
+                "LSM303DLH configured: accel {=u16} Hz",
+                imu.accel_config().rate.hz()
+            ),
+            Some(e) => defmt::error!("LSM303DLH configuration failed: {=str}", imu::describe(&e)),
+        }
+        if !adc_scan.calibrated() {
+            defmt::error!("ADC calibration did not complete");
+        }
+        if source == ClockSource::Hsi {
+            defmt::error!("HSE did not start: running from HSI at 64 MHz");
+        }
+        match boot_sentence(source, reset, imu.configured()) {
+            Ok(s) => {
+                tx.send([s.as_bytes()]);
+            }
+            Err(_) => defmt::error!("boot sentence does not fit"),
+        }
+
+        // Expect: each task is spawned exactly once, here; an error is a programming error.
+        filter::spawn().expect("filter task spawned twice");
+        blink::spawn().expect("blink task spawned twice");
+
+        (
+            Shared { adc: AdcShared::default(), health: Health::default() },
+            Local { adc_scan, imu, pipeline: Pipeline::new(settings), tx, led, sysclk_hz },
+        )
+    }
+
+    /// `$PINAB,<clock>,<reset cause>,<imu>,<version>*hh`: sent once at boot.
+    /// clock `HSE72` | `HSI64`; reset `POR` `PIN` `SFT` `IWDG` `WWDG` `LPWR` `UNK`;
+    /// imu `OK` | `FAIL` (LSM303DLH configured or not).
+    fn boot_sentence(
+        source: ClockSource,
+        reset: ResetCause,
+        imu_ok: bool,
+    ) -> Result<Sentence, NmeaError> {
+        let mut s = Sentence::new();
+        let imu = if imu_ok { "OK" } else { "FAIL" };
+        for field in
+            ["PINAB,", source.tag(), ",", reset.tag(), ",", imu, ",", env!("CARGO_PKG_VERSION")]
+        {
+            s.push_str(field)?;
+        }
+        s.finish()?;
+        Ok(s)
+    }
+
+    #[idle]
+    fn idle(_: idle::Context) -> ! {
+        loop {
+            cortex_m::asm::wfi();
+        }
+    }
+
+    /// A scan frame is complete (DMA half/full transfer): hand it to the filter.
+    #[task(binds = DMA1_CHANNEL1, priority = 3, local = [adc_scan], shared = [adc])]
+    fn adc_frame(mut cx: adc_frame::Context) {
+        let serviced = cx.local.adc_scan.service();
+        cx.shared.adc.lock(|adc| adc.record(&serviced));
+    }
+
+    /// True when tick `a` is later than tick `b` (wrap-aware, as the timer queue compares).
+    fn later(a: u32, b: u32) -> bool {
+        (a.wrapping_sub(b) as i32) > 0
+    }
+
+    /// Wait until tick `at`.
+    async fn until(at: u32) {
+        Mono::delay_until(Instant::from_ticks(at)).await;
+    }
+
+    /// The filter: one cycle every 1/filter_rate_hz.
+    #[task(priority = 2, local = [imu, pipeline, tx, sysclk_hz], shared = [adc, health])]
+    async fn filter(mut cx: filter::Context) {
+        let rate = u32::from(cx.local.pipeline.settings().filter_rate_hz.max(1));
+        let period = ((MONO_HZ + rate / 2) / rate).max(1);
+        let nominal_dt = period as f32 / MONO_HZ as f32;
+        let sysclk = *cx.local.sysclk_hz;
+        // Non-zero divisors: no division-by-zero check (and panic path) in the loop.
+        let cycles_per_us = NonZeroU32::new(sysclk / 1_000_000).unwrap_or(NonZeroU32::MIN);
+        let stats_every = NonZeroU32::new(rate * 10).unwrap_or(NonZeroU32::MIN);
+
+        // Let the gyros settle, then drop the frames of that time.
+        let mut next = Mono::now().as_ticks().wrapping_add(GYRO_SETTLE_MS * (MONO_HZ / 1000));
+        until(next).await;
+        cx.shared.adc.lock(|adc| adc.take());
+        next = next.wrapping_add(period);
+
+        let mut prev_start: Option<u32> = None;
+        let mut last_cycle_us = 0;
+        let mut max_cycle_us = 0;
+        let mut overruns = 0u32;
+        let mut lost_frames = 0u32;
+        let mut cycle = 0u32;
+        loop {
+            until(next).await;
+            let start = DWT::cycle_count();
+            let dt = match prev_start {
+                Some(prev) => start.wrapping_sub(prev) as f32 / sysclk as f32,
+                None => nominal_dt,
+            };
+            prev_start = Some(start);
+
+            // ADC: the frames since the last cycle (the mean is computed outside the lock).
+            let mut batch = cx.shared.adc.lock(|adc| adc.take());
+            let adc = batch.averager.take();
+            let mut board_status = Status::NONE;
+            if batch.lost > 0 || batch.errors > 0 || adc.is_some_and(|m| m.dropped > 0) {
+                board_status.insert(Status::ADC_FAULT);
+            }
+            lost_frames = lost_frames.saturating_add(batch.lost);
+            if batch.errors > 0 {
+                defmt::error!("ADC DMA transfer error: the scan has stopped");
+            }
+
+            let reading = cx.local.imu.read();
+            if reading.fault {
+                board_status.insert(Status::I2C_FAULT);
+            }
+
+            let step = cx.local.pipeline.step(&Inputs {
+                dt,
+                adc,
+                accel_g: reading.accel_g,
+                mag_ut: reading.mag_ut,
+                board: board_status,
+                last_cycle_us,
+            });
+            if step.sentences.iter().next().is_some() {
+                cx.local.tx.send(step.sentences.iter().map(Sentence::as_bytes));
+            }
+            cx.shared.health.lock(|h| h.record(step.status));
+
+            last_cycle_us = DWT::cycle_count().wrapping_sub(start) / cycles_per_us;
+            max_cycle_us = max_cycle_us.max(last_cycle_us);
+            cycle = cycle.wrapping_add(1);
+            if cycle % stats_every == 0 {
+                defmt::info!(
+                    "cycle {=u32}: max {=u32} us, status {=u32:#x}, overruns {=u32}, ADC lost {=u32}, I2C errors {=u32}, tx dropped {=u32}",
+                    cycle,
+                    max_cycle_us,
+                    step.status.0,
+                    overruns,
+                    lost_frames,
+                    cx.local.imu.counters.i2c_errors,
+                    cx.local.tx.dropped
+                );
+                max_cycle_us = 0;
+            }
+
+            // Next period; after an overrun start again from now rather than catch up.
+            next = next.wrapping_add(period);
+            let now = Mono::now().as_ticks();
+            if later(now, next) {
+                overruns = overruns.saturating_add(1);
+                next = now;
+            }
+        }
+    }
+
+    /// The status LED.
+    #[task(priority = 1, local = [led], shared = [health])]
+    async fn blink(mut cx: blink::Context) {
+        let slot_ticks = led::SLOT_MS * (MONO_HZ / 1000);
+        let mut next = Mono::now().as_ticks();
+        let mut mode = led::Mode::Init;
+        let mut started = false;
+        let mut slot = 0;
+        loop {
+            if slot == 0 {
+                let health = cx.shared.health.lock(core::mem::take);
+                let new = led::mode(health, started);
+                started |= health.cycles > 0;
+                if new != mode {
+                    defmt::println!("status LED: {}", new);
+                    mode = new;
+                }
+            }
+            cx.local.led.set_state(PinState::from(led::lit(mode, slot)));
+            slot = (slot + 1) % led::SLOTS;
+            next = next.wrapping_add(slot_ticks);
+            until(next).await;
+        }
+    }
+}

@@ -1,0 +1,212 @@
+//! The flash interface the settings store needs, and a simulated flash for host tests.
+
+use core::fmt;
+
+/// One of the two settings pages.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Page {
+    /// The first page.
+    A,
+    /// The second page.
+    B,
+}
+
+impl Page {
+    /// The other page.
+    pub const fn other(self) -> Page {
+        match self {
+            Page::A => Page::B,
+            Page::B => Page::A,
+        }
+    }
+
+    /// `"A"` or `"B"`.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Page::A => "A",
+            Page::B => "B",
+        }
+    }
+
+    const fn index(self) -> usize {
+        match self {
+            Page::A => 0,
+            Page::B => 1,
+        }
+    }
+}
+
+/// Why a flash operation failed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FlashError {
+    /// Offset or length outside the page, or an odd offset for a half-word.
+    OutOfBounds,
+    /// The erase did not complete (hardware error flag, timeout).
+    Erase,
+    /// The program did not complete, or the half-word was not erased (STM32F1 `PGERR`).
+    Program,
+    /// Simulated power loss ([`SimFlash`] only): nothing more is written until
+    /// [`SimFlash::power_on`].
+    PowerLoss,
+}
+
+impl fmt::Display for FlashError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            FlashError::OutOfBounds => "flash access out of bounds",
+            FlashError::Erase => "flash erase failed",
+            FlashError::Program => "flash program failed",
+            FlashError::PowerLoss => "power lost",
+        })
+    }
+}
+
+/// Two erasable pages of NOR flash, as on the STM32F103RE: a page erases to all-ones
+/// (0xFF bytes) and is programmed one 16-bit half-word at a time (little-endian, even
+/// offsets); programming can only clear bits.
+///
+/// On the board, the pages are the last two 2 KiB pages of the 512 KiB bank
+/// (0x0807_F000 = A and 0x0807_F800 = B; the linker script must keep code out of them), and
+/// the implementation wraps the HAL's `FlashWriter` (`page_erase`, `write` of 2 bytes,
+/// `read`).
+pub trait Flash {
+    /// Page size, bytes (2048 on the STM32F103RE).
+    fn page_size(&self) -> usize;
+    /// Read `buf.len()` bytes of `page` from `offset`.
+    fn read(&self, page: Page, offset: usize, buf: &mut [u8]) -> Result<(), FlashError>;
+    /// Erase `page` (every byte becomes 0xFF).
+    fn erase(&mut self, page: Page) -> Result<(), FlashError>;
+    /// Program the half-word at even `offset` of `page` (bytes `offset`, `offset + 1` =
+    /// `value`'s low and high byte).
+    fn program(&mut self, page: Page, offset: usize, value: u16) -> Result<(), FlashError>;
+}
+
+/// Page size of [`SimFlash`], bytes (the STM32F103RE's).
+pub const SIM_PAGE_SIZE: usize = 2048;
+
+/// A simulated two-page flash with a power cut: erased bytes read 0xFF, programming ANDs
+/// (clears bits only) and, like the STM32F1, refuses to program a half-word that is not
+/// erased unless the value is 0. After [`SimFlash::cut_power_after`]`(n)`, the first `n`
+/// write steps (erases and programs) complete and every later one fails with
+/// [`FlashError::PowerLoss`] and changes nothing — or, with `torn`, the interrupted step is
+/// left half done (the first half of an erased page, the low byte of a half-word).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct SimFlash {
+    pages: [[u8; SIM_PAGE_SIZE]; 2],
+    /// Write steps done (erases and programs that changed the flash).
+    pub steps: usize,
+    cut_after: Option<usize>,
+    torn: bool,
+    off: bool,
+}
+
+impl Default for SimFlash {
+    fn default() -> Self {
+        SimFlash::new()
+    }
+}
+
+impl SimFlash {
+    /// Both pages erased, power on.
+    pub const fn new() -> Self {
+        SimFlash {
+            pages: [[0xFF; SIM_PAGE_SIZE]; 2],
+            steps: 0,
+            cut_after: None,
+            torn: false,
+            off: false,
+        }
+    }
+
+    /// Cut the power after `n` more write steps; with `torn`, the step that is interrupted
+    /// is left half done.
+    pub fn cut_power_after(&mut self, n: usize, torn: bool) {
+        self.cut_after = Some(self.steps + n);
+        self.torn = torn;
+    }
+
+    /// Power back on: writes work again, without a cut.
+    pub fn power_on(&mut self) {
+        self.cut_after = None;
+        self.off = false;
+    }
+
+    /// True after a simulated power cut (until [`SimFlash::power_on`]).
+    pub fn is_off(&self) -> bool {
+        self.off
+    }
+
+    /// The raw bytes of `page`.
+    pub fn page(&self, page: Page) -> &[u8; SIM_PAGE_SIZE] {
+        &self.pages[page.index()]
+    }
+
+    /// The raw bytes of `page`, for corrupting it in tests.
+    pub fn page_mut(&mut self, page: Page) -> &mut [u8; SIM_PAGE_SIZE] {
+        &mut self.pages[page.index()]
+    }
+
+    /// True if this step is cut; marks the flash as off.
+    fn cut_now(&mut self) -> bool {
+        if self.off {
+            return true;
+        }
+        if self.cut_after.is_some_and(|n| self.steps >= n) {
+            self.off = true;
+            return true;
+        }
+        false
+    }
+}
+
+impl Flash for SimFlash {
+    fn page_size(&self) -> usize {
+        SIM_PAGE_SIZE
+    }
+
+    fn read(&self, page: Page, offset: usize, buf: &mut [u8]) -> Result<(), FlashError> {
+        let src = self.pages[page.index()]
+            .get(offset..offset.saturating_add(buf.len()))
+            .ok_or(FlashError::OutOfBounds)?;
+        buf.copy_from_slice(src);
+        Ok(())
+    }
+
+    fn erase(&mut self, page: Page) -> Result<(), FlashError> {
+        let was_off = self.off;
+        if self.cut_now() {
+            if self.torn && !was_off {
+                self.pages[page.index()][..SIM_PAGE_SIZE / 2].fill(0xFF);
+            }
+            return Err(FlashError::PowerLoss);
+        }
+        self.pages[page.index()].fill(0xFF);
+        self.steps += 1;
+        Ok(())
+    }
+
+    fn program(&mut self, page: Page, offset: usize, value: u16) -> Result<(), FlashError> {
+        if offset % 2 != 0 || offset + 2 > SIM_PAGE_SIZE {
+            return Err(FlashError::OutOfBounds);
+        }
+        let p = &mut self.pages[page.index()];
+        let old = u16::from_le_bytes([p[offset], p[offset + 1]]);
+        if old != 0xFFFF && value != 0 {
+            return Err(FlashError::Program);
+        }
+        let was_off = self.off;
+        if self.cut_now() {
+            if self.torn && !was_off {
+                let p = &mut self.pages[page.index()];
+                p[offset] &= value.to_le_bytes()[0];
+            }
+            return Err(FlashError::PowerLoss);
+        }
+        let p = &mut self.pages[page.index()];
+        let new = (old & value).to_le_bytes();
+        p[offset] = new[0];
+        p[offset + 1] = new[1];
+        self.steps += 1;
+        Ok(())
+    }
+}

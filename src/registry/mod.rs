@@ -1,0 +1,400 @@
+//! The settings registry: one table ([`SETTINGS`]) of every setting of
+//! [`PipelineSettings`] the operator may read, change and save — its name, stable id, type,
+//! unit, valid range and accessors.
+//!
+//! Everything else derives from this table: the `GET`/`SET`/`LIST` commands
+//! ([`crate::command`]), the flash record ([`crate::persist`], entries keyed by
+//! [`Setting::id`]) and the table in `docs/commands.md` (a test checks that every row of the
+//! documentation matches [`Setting::doc_row`]).
+//!
+//! Units. The wire uses the operator's units — degrees, °/s, °/h, g, mV/(°/s) — written in
+//! ASCII ([`Setting::unit`]: `deg`, `deg/s`, `deg/h`, ...). `PipelineSettings` stores SI/rad
+//! values; [`Setting::scale`] converts (`user = internal · scale`, in `f64`). Ranges
+//! ([`Setting::min`], [`Setting::max`]) are in user units, inclusive, and apply to every
+//! component of a vector. Values are printed with 7 significant digits
+//! ([`number::push_number`]); flash keeps the internal `f32` bits, so a save and a load are
+//! exact.
+
+pub mod number;
+mod table;
+
+pub use table::SETTINGS;
+
+use ekf_core::axis_map::AxisMap;
+
+use crate::nmea::{NmeaError, Sentence};
+use crate::pipeline::PipelineSettings;
+
+/// Type of a setting's value.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Kind {
+    /// One number (`f32` internally), scaled to user units.
+    F32,
+    /// `0` or `1`.
+    Bool,
+    /// Unsigned integer (`u16` or smaller internally).
+    U16,
+    /// Three numbers (x, y, z), scaled to user units.
+    Vec3,
+    /// Signed axis permutation, three tokens such as `x,-y,-z`: body axis i (x forward,
+    /// y starboard, z down) is the sensor axis named by token i, negated with `-`.
+    Axes,
+}
+
+impl Kind {
+    /// Number of comma-separated fields of a value of this kind.
+    pub const fn fields(self) -> usize {
+        match self {
+            Kind::F32 | Kind::Bool | Kind::U16 => 1,
+            Kind::Vec3 | Kind::Axes => 3,
+        }
+    }
+
+    /// Name used in `LIST` replies and the documentation.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Kind::F32 => "f32",
+            Kind::Bool => "bool",
+            Kind::U16 => "u16",
+            Kind::Vec3 => "f32x3",
+            Kind::Axes => "axes",
+        }
+    }
+}
+
+/// A setting's value in INTERNAL units (as stored in [`PipelineSettings`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Value {
+    /// [`Kind::F32`].
+    F32(f32),
+    /// [`Kind::Bool`].
+    Bool(bool),
+    /// [`Kind::U16`].
+    U16(u16),
+    /// [`Kind::Vec3`].
+    Vec3([f32; 3]),
+    /// [`Kind::Axes`].
+    Axes(AxisMap),
+}
+
+impl Value {
+    /// The kind of this value.
+    pub const fn kind(&self) -> Kind {
+        match self {
+            Value::F32(_) => Kind::F32,
+            Value::Bool(_) => Kind::Bool,
+            Value::U16(_) => Kind::U16,
+            Value::Vec3(_) => Kind::Vec3,
+            Value::Axes(_) => Kind::Axes,
+        }
+    }
+}
+
+/// Why a value given as text was refused.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ValueError {
+    /// Wrong number of fields (the expected number is [`Kind::fields`]).
+    Args,
+    /// A field is not of the setting's type (not a number, not `0`/`1`, not an integer, not
+    /// an axis token).
+    Type,
+    /// A field is out of [`Setting::min`]..=[`Setting::max`], or an axis map is not a
+    /// permutation.
+    Range,
+}
+
+/// One entry of the registry.
+#[derive(Clone, Copy)]
+pub struct Setting {
+    /// Stable identifier used in flash records. Never reused for another meaning: a removed
+    /// setting's id stays retired.
+    pub id: u16,
+    /// Dotted name used by `GET`/`SET` (lowercase; matched case-insensitively).
+    pub name: &'static str,
+    /// Value type.
+    pub kind: Kind,
+    /// Unit as shown to the operator, ASCII (empty: dimensionless or not a number).
+    pub unit: &'static str,
+    /// `user = internal · scale` for [`Kind::F32`] and [`Kind::Vec3`]; 1 otherwise.
+    pub scale: f64,
+    /// Smallest valid value per component, user units ([`Kind::F32`], [`Kind::Vec3`],
+    /// [`Kind::U16`]).
+    pub min: f64,
+    /// Largest valid value per component, user units.
+    pub max: f64,
+    /// One-line description for the documentation.
+    pub help: &'static str,
+    get: fn(&PipelineSettings) -> Value,
+    set: fn(&mut PipelineSettings, Value),
+}
+
+impl core::fmt::Debug for Setting {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.debug_struct("Setting").field("id", &self.id).field("name", &self.name).finish()
+    }
+}
+
+/// `(°/s)` per `rad/s`, and friends.
+const DEG: f64 = 180.0 / core::f64::consts::PI;
+
+impl Setting {
+    /// The current value (internal units).
+    pub fn get(&self, s: &PipelineSettings) -> Value {
+        (self.get)(s)
+    }
+
+    /// Store `v` (internal units). Values of another kind, or failing [`Setting::check`], are
+    /// ignored and false is returned.
+    pub fn set(&self, s: &mut PipelineSettings, v: Value) -> bool {
+        if !self.check(&v) {
+            return false;
+        }
+        (self.set)(s, v);
+        true
+    }
+
+    /// True when `v` (internal units) has this setting's kind and is in range. Scaled values
+    /// get a relative slack of 1e−6 so that a stored internal value at a limit passes.
+    pub fn check(&self, v: &Value) -> bool {
+        let slack = 1e-6 * self.min.abs().max(self.max.abs()).max(1.0);
+        let in_range = |x: f32| {
+            x.is_finite() && {
+                let u = f64::from(x) * self.scale;
+                u >= self.min - slack && u <= self.max + slack
+            }
+        };
+        match (*v, self.kind) {
+            (Value::F32(x), Kind::F32) => in_range(x),
+            (Value::Vec3(x), Kind::Vec3) => x.iter().all(|&c| in_range(c)),
+            (Value::U16(x), Kind::U16) => f64::from(x) >= self.min && f64::from(x) <= self.max,
+            (Value::Bool(_), Kind::Bool) | (Value::Axes(_), Kind::Axes) => true,
+            _ => false,
+        }
+    }
+
+    /// Parse a value from its comma-separated fields (user units) and validate it; the result
+    /// is in internal units. Nothing is changed.
+    pub fn parse(&self, fields: &[&str]) -> Result<Value, ValueError> {
+        if fields.len() != self.kind.fields() {
+            return Err(ValueError::Args);
+        }
+        let f = |i: usize| fields.get(i).copied().unwrap_or("");
+        match self.kind {
+            Kind::F32 => Ok(Value::F32(self.parse_scaled(f(0))?)),
+            Kind::Vec3 => {
+                // Every field is checked for its type before any for its range.
+                for i in 0..3 {
+                    number::parse_number(f(i)).ok_or(ValueError::Type)?;
+                }
+                Ok(Value::Vec3([
+                    self.parse_scaled(f(0))?,
+                    self.parse_scaled(f(1))?,
+                    self.parse_scaled(f(2))?,
+                ]))
+            }
+            Kind::Bool => match f(0) {
+                "0" => Ok(Value::Bool(false)),
+                "1" => Ok(Value::Bool(true)),
+                _ => Err(ValueError::Type),
+            },
+            Kind::U16 => {
+                let n = number::parse_uint(f(0)).ok_or(ValueError::Type)?;
+                if f64::from(n) < self.min || f64::from(n) > self.max {
+                    return Err(ValueError::Range);
+                }
+                u16::try_from(n).map(Value::U16).map_err(|_| ValueError::Range)
+            }
+            Kind::Axes => parse_axes([f(0), f(1), f(2)]).map(Value::Axes),
+        }
+    }
+
+    fn parse_scaled(&self, text: &str) -> Result<f32, ValueError> {
+        let u = number::parse_number(text).ok_or(ValueError::Type)?;
+        if !(u.is_finite() && u >= self.min && u <= self.max) {
+            return Err(ValueError::Range);
+        }
+        let internal = (u / self.scale) as f32;
+        if !internal.is_finite() {
+            return Err(ValueError::Range);
+        }
+        Ok(internal)
+    }
+
+    /// Append `v` (internal units) as comma-separated fields in user units.
+    pub fn write_value(&self, v: &Value, out: &mut Sentence) -> Result<(), NmeaError> {
+        match *v {
+            Value::F32(x) => number::push_number(out, f64::from(x) * self.scale),
+            Value::Vec3(x) => {
+                for (i, c) in x.iter().enumerate() {
+                    if i > 0 {
+                        out.push_str(",")?;
+                    }
+                    number::push_number(out, f64::from(*c) * self.scale)?;
+                }
+                Ok(())
+            }
+            Value::Bool(b) => out.push_str(if b { "1" } else { "0" }),
+            Value::U16(n) => out.push_uint(u64::from(n)),
+            Value::Axes(m) => {
+                for i in 0..3 {
+                    if i > 0 {
+                        out.push_str(",")?;
+                    }
+                    let (src, sign) = (m.source()[i], m.sign()[i]);
+                    if sign < 0 {
+                        out.push_str("-")?;
+                    }
+                    out.push_str(match src {
+                        0 => "x",
+                        1 => "y",
+                        _ => "z",
+                    })?;
+                }
+                Ok(())
+            }
+        }
+    }
+
+    /// Serialise `v` (internal units) for flash: little-endian `f32` bits, `u16`, one byte per
+    /// bool, or one byte per axis (source index, bit 7 set for a negative sign). Returns the
+    /// number of bytes written (0 if `out` is too short or the kind does not match).
+    pub fn encode(&self, v: &Value, out: &mut [u8]) -> usize {
+        let mut tmp = [0u8; 12];
+        let n = match (*v, self.kind) {
+            (Value::F32(x), Kind::F32) => {
+                tmp[..4].copy_from_slice(&x.to_le_bytes());
+                4
+            }
+            (Value::Vec3(x), Kind::Vec3) => {
+                for (chunk, c) in tmp.chunks_exact_mut(4).zip(x.iter()) {
+                    chunk.copy_from_slice(&c.to_le_bytes());
+                }
+                12
+            }
+            (Value::Bool(b), Kind::Bool) => {
+                tmp[0] = u8::from(b);
+                1
+            }
+            (Value::U16(x), Kind::U16) => {
+                tmp[..2].copy_from_slice(&x.to_le_bytes());
+                2
+            }
+            (Value::Axes(m), Kind::Axes) => {
+                for ((slot, src), sign) in tmp.iter_mut().zip(m.source()).zip(m.sign()) {
+                    *slot = src | if sign < 0 { 0x80 } else { 0 };
+                }
+                3
+            }
+            _ => return 0,
+        };
+        match (out.get_mut(..n), tmp.get(..n)) {
+            (Some(dst), Some(src)) => {
+                dst.copy_from_slice(src);
+                n
+            }
+            _ => 0,
+        }
+    }
+
+    /// Decode a value written by [`Setting::encode`]; `None` if the length or content does not
+    /// fit this setting's kind, or the value fails [`Setting::check`].
+    pub fn decode(&self, bytes: &[u8]) -> Option<Value> {
+        let f = |i: usize| -> Option<f32> {
+            let b = bytes.get(4 * i..4 * i + 4)?;
+            Some(f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+        };
+        let v = match (self.kind, bytes.len()) {
+            (Kind::F32, 4) => Value::F32(f(0)?),
+            (Kind::Vec3, 12) => Value::Vec3([f(0)?, f(1)?, f(2)?]),
+            (Kind::Bool, 1) => match bytes.first()? {
+                0 => Value::Bool(false),
+                1 => Value::Bool(true),
+                _ => return None,
+            },
+            (Kind::U16, 2) => Value::U16(u16::from_le_bytes([*bytes.first()?, *bytes.get(1)?])),
+            (Kind::Axes, 3) => {
+                let mut source = [0u8; 3];
+                let mut sign = [1i8; 3];
+                for i in 0..3 {
+                    let b = *bytes.get(i)?;
+                    if b & 0x7C != 0 {
+                        return None;
+                    }
+                    source[i] = b & 0x03;
+                    sign[i] = if b & 0x80 != 0 { -1 } else { 1 };
+                }
+                Value::Axes(AxisMap::new(source, sign).ok()?)
+            }
+            _ => return None,
+        };
+        self.check(&v).then_some(v)
+    }
+
+    /// The documentation row of this setting in `docs/commands.md`:
+    /// `| name | type | unit | min | max | default | description |`.
+    pub fn doc_row(&self, out: &mut impl core::fmt::Write) -> core::fmt::Result {
+        let mut default = Sentence::new();
+        let _ = self.write_value(&self.get(&PipelineSettings::default()), &mut default);
+        let range = matches!(self.kind, Kind::F32 | Kind::Vec3 | Kind::U16);
+        let mut lo = [0u8; 24];
+        let mut hi = [0u8; 24];
+        let (nl, nh) = if range {
+            (number::format_number(self.min, &mut lo), number::format_number(self.max, &mut hi))
+        } else {
+            (0, 0)
+        };
+        write!(
+            out,
+            "| `{}` | {} | {} | {} | {} | `{}` | {} |",
+            self.name,
+            self.kind.name(),
+            self.unit,
+            ascii(&lo, nl),
+            ascii(&hi, nh),
+            default.body(),
+            self.help
+        )
+    }
+}
+
+fn ascii(b: &[u8], n: usize) -> &str {
+    core::str::from_utf8(b.get(..n).unwrap_or(&[])).unwrap_or("")
+}
+
+/// Parse three axis tokens (`x`, `-y`, `+z`, case-insensitive) into a map.
+fn parse_axes(tokens: [&str; 3]) -> Result<AxisMap, ValueError> {
+    let mut source = [0u8; 3];
+    let mut sign = [1i8; 3];
+    for (i, t) in tokens.iter().enumerate() {
+        let (sg, rest) = match t.as_bytes() {
+            [b'-', rest @ ..] => (-1, rest),
+            [b'+', rest @ ..] => (1, rest),
+            rest => (1, rest),
+        };
+        source[i] = match rest {
+            [b'x' | b'X'] => 0,
+            [b'y' | b'Y'] => 1,
+            [b'z' | b'Z'] => 2,
+            _ => return Err(ValueError::Type),
+        };
+        sign[i] = sg;
+    }
+    AxisMap::new(source, sign).map_err(|_| ValueError::Range)
+}
+
+/// The setting called `name` (ASCII case-insensitive).
+pub fn find(name: &str) -> Option<&'static Setting> {
+    SETTINGS.iter().find(|s| s.name.eq_ignore_ascii_case(name))
+}
+
+/// The setting with flash id `id`.
+pub fn by_id(id: u16) -> Option<&'static Setting> {
+    SETTINGS.iter().find(|s| s.id == id)
+}
+
+pub(crate) const fn deg() -> f64 {
+    DEG
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,661 @@
+//! The table itself. Ids are grouped by tens per section; an id is never reused.
+
+use ekf_core::Vec3;
+
+use super::{deg, Kind, Setting, Value};
+
+/// rad/s → °/s (and rad → °).
+const DEG: f64 = deg();
+/// (rad/s)² → (°/s)².
+const DEG2: f64 = DEG * DEG;
+/// rad/s → °/h.
+const DEG_H: f64 = DEG * 3600.0;
+
+/// `x` as a smaller integer type, if it fits.
+fn narrow<T: TryFrom<u16>>(x: u16) -> Option<T> {
+    T::try_from(x).ok()
+}
+
+/// A scaled number field.
+macro_rules! num {
+    ($id:literal, $name:literal, $unit:literal, $scale:expr, $min:expr, $max:expr, $help:literal,
+     |$s:ident| $field:expr) => {
+        Setting {
+            id: $id,
+            name: $name,
+            kind: Kind::F32,
+            unit: $unit,
+            scale: $scale,
+            min: $min,
+            max: $max,
+            help: $help,
+            get: |$s| Value::F32($field),
+            set: |$s, v| {
+                if let Value::F32(x) = v {
+                    $field = x;
+                }
+            },
+        }
+    };
+}
+
+/// A scaled `Vec3` field.
+macro_rules! vec3 {
+    ($id:literal, $name:literal, $unit:literal, $scale:expr, $min:expr, $max:expr, $help:literal,
+     |$s:ident| $field:expr) => {
+        Setting {
+            id: $id,
+            name: $name,
+            kind: Kind::Vec3,
+            unit: $unit,
+            scale: $scale,
+            min: $min,
+            max: $max,
+            help: $help,
+            get: |$s| Value::Vec3($field.to_array()),
+            set: |$s, v| {
+                if let Value::Vec3(x) = v {
+                    $field = Vec3::from_array(x);
+                }
+            },
+        }
+    };
+}
+
+/// A scaled `[f32; 3]` field.
+macro_rules! arr3 {
+    ($id:literal, $name:literal, $unit:literal, $scale:expr, $min:expr, $max:expr, $help:literal,
+     |$s:ident| $field:expr) => {
+        Setting {
+            id: $id,
+            name: $name,
+            kind: Kind::Vec3,
+            unit: $unit,
+            scale: $scale,
+            min: $min,
+            max: $max,
+            help: $help,
+            get: |$s| Value::Vec3($field),
+            set: |$s, v| {
+                if let Value::Vec3(x) = v {
+                    $field = x;
+                }
+            },
+        }
+    };
+}
+
+/// A `bool` field.
+macro_rules! flag {
+    ($id:literal, $name:literal, $help:literal, |$s:ident| $field:expr) => {
+        Setting {
+            id: $id,
+            name: $name,
+            kind: Kind::Bool,
+            unit: "",
+            scale: 1.0,
+            min: 0.0,
+            max: 1.0,
+            help: $help,
+            get: |$s| Value::Bool($field),
+            set: |$s, v| {
+                if let Value::Bool(x) = v {
+                    $field = x;
+                }
+            },
+        }
+    };
+}
+
+/// An unsigned integer field (`u16` or `u8`; the range keeps `u8` fields in range).
+macro_rules! uint {
+    ($id:literal, $name:literal, $unit:literal, $min:expr, $max:expr, $help:literal,
+     |$s:ident| $field:expr) => {
+        Setting {
+            id: $id,
+            name: $name,
+            kind: Kind::U16,
+            unit: $unit,
+            scale: 1.0,
+            min: $min,
+            max: $max,
+            help: $help,
+            get: |$s| Value::U16(u16::from($field)),
+            set: |$s, v| {
+                if let Value::U16(x) = v {
+                    if let Some(x) = narrow(x) {
+                        $field = x;
+                    }
+                }
+            },
+        }
+    };
+}
+
+/// An axis-map field.
+macro_rules! axes {
+    ($id:literal, $name:literal, $help:literal, |$s:ident| $field:expr) => {
+        Setting {
+            id: $id,
+            name: $name,
+            kind: Kind::Axes,
+            unit: "",
+            scale: 1.0,
+            min: 0.0,
+            max: 0.0,
+            help: $help,
+            get: |$s| Value::Axes($field),
+            set: |$s, v| {
+                if let Value::Axes(x) = v {
+                    $field = x;
+                }
+            },
+        }
+    };
+}
+
+/// Every setting, in documentation order.
+pub static SETTINGS: [Setting; 64] = [
+    // Noise model.
+    vec3!(
+        1,
+        "noise.gyro_var",
+        "(deg/s)2",
+        DEG2,
+        1e-6,
+        100.0,
+        "gyro white-noise variance per sample at `noise.gyro_ref_rate`, body x, y, z",
+        |s| s.filter.noise.gyro_var
+    ),
+    num!(
+        2,
+        "noise.gyro_ref_rate",
+        "Hz",
+        1.0,
+        1.0,
+        1000.0,
+        "sample rate at which `noise.gyro_var` was measured",
+        |s| s.filter.noise.gyro_ref_rate_hz
+    ),
+    num!(
+        3,
+        "noise.accel_var",
+        "g2",
+        1.0,
+        1e-12,
+        1.0,
+        "accelerometer white-noise variance per axis and sample",
+        |s| s.filter.noise.accel_var
+    ),
+    // Initialisation window.
+    num!(
+        10,
+        "init.window",
+        "s",
+        1.0,
+        0.0,
+        600.0,
+        "initialisation window (tilt and gyro bias averaged over it); 0 starts at once",
+        |s| s.filter.init.window_s
+    ),
+    num!(
+        11,
+        "init.yaw0",
+        "deg",
+        DEG,
+        -180.0,
+        180.0,
+        "initial yaw (the `YAW0` command sets it too)",
+        |s| s.filter.init.initial_yaw
+    ),
+    flag!(
+        12,
+        "init.estimate_bias",
+        "take the gyro bias from the window (the vehicle must be still)",
+        |s| s.filter.init.estimate_gyro_bias
+    ),
+    vec3!(
+        13,
+        "init.gyro_bias",
+        "deg/s",
+        DEG,
+        -50.0,
+        50.0,
+        "gyro bias used when not estimated, body FRD",
+        |s| s.filter.init.gyro_bias
+    ),
+    // Accelerometer gate.
+    num!(
+        20,
+        "gate.norm_tolerance",
+        "",
+        1.0,
+        0.001,
+        1.0,
+        "skip the tilt update when the accelerometer norm differs from 1 g by more (fraction)",
+        |s| s.filter.gate.norm_tolerance
+    ),
+    num!(
+        21,
+        "gate.jump",
+        "g",
+        1.0,
+        0.001,
+        16.0,
+        "knock: skip when the accelerometer moves more between two samples",
+        |s| s.filter.gate.jump_g
+    ),
+    num!(
+        22,
+        "gate.innovation_chi2",
+        "",
+        1.0,
+        1.0,
+        1e6,
+        "knock: skip when the normalised innovation squared exceeds it (2 dof)",
+        |s| s.filter.gate.innovation_chi2
+    ),
+    num!(
+        23,
+        "gate.holdoff",
+        "s",
+        1.0,
+        0.0,
+        60.0,
+        "keep skipping this long after any rejection",
+        |s| s.filter.gate.holdoff_s
+    ),
+    num!(
+        24,
+        "gate.reacquire",
+        "s",
+        1.0,
+        0.0,
+        3600.0,
+        "bypass the innovation gate after it alone rejected this long",
+        |s| s.filter.gate.reacquire_s
+    ),
+    num!(
+        25,
+        "gate.long_reject",
+        "s",
+        1.0,
+        0.0,
+        86400.0,
+        "raise the long-rejection flag after this long rejected",
+        |s| s.filter.gate.long_reject_s
+    ),
+    // Plausibility limits.
+    num!(
+        30,
+        "limits.gyro_range",
+        "deg/s",
+        DEG,
+        1.0,
+        10000.0,
+        "gyro full scale: at or beyond, the sample is flagged saturated",
+        |s| s.filter.limits.gyro_range
+    ),
+    num!(
+        31,
+        "limits.gyro_abs_max",
+        "deg/s",
+        DEG,
+        1.0,
+        100000.0,
+        "a gyro sample beyond this is absurd and rejected",
+        |s| s.filter.limits.gyro_abs_max
+    ),
+    num!(
+        32,
+        "limits.accel_abs_max",
+        "g",
+        1.0,
+        0.5,
+        1000.0,
+        "an accelerometer norm beyond this is absurd and rejected",
+        |s| s.filter.limits.accel_abs_max_g
+    ),
+    num!(
+        33,
+        "limits.accel_min",
+        "g",
+        1.0,
+        0.0,
+        1.0,
+        "an accelerometer norm below this has no usable direction",
+        |s| s.filter.limits.accel_min_g
+    ),
+    num!(
+        34,
+        "limits.max_gap",
+        "s",
+        1.0,
+        0.001,
+        60.0,
+        "longest time step integrated with the sample's rate",
+        |s| s.filter.limits.max_gap_s
+    ),
+    // Rest detection.
+    flag!(40, "rest.enabled", "rest detection (bias re-estimation, yaw hold)", |s| s
+        .filter
+        .rest
+        .enabled),
+    num!(41, "rest.block", "s", 1.0, 0.1, 600.0, "length of one detection block", |s| s
+        .filter
+        .rest
+        .block_s),
+    uint!(42, "rest.min_blocks", "", 1.0, 255.0, "consecutive still blocks before rest", |s| s
+        .filter
+        .rest
+        .min_blocks),
+    num!(
+        43,
+        "rest.rate_threshold",
+        "deg/s",
+        DEG,
+        0.0,
+        10.0,
+        "largest bias-corrected mean rate of a still block (plus 3 standard errors)",
+        |s| s.filter.rest.rate_threshold
+    ),
+    num!(
+        44,
+        "rest.gyro_var_factor",
+        "",
+        1.0,
+        1.0,
+        10000.0,
+        "largest gyro variance of a still block, times the configured noise",
+        |s| s.filter.rest.gyro_var_factor
+    ),
+    num!(
+        45,
+        "rest.accel_std_max",
+        "g",
+        1.0,
+        0.0,
+        1.0,
+        "largest accelerometer standard deviation per axis of a still block",
+        |s| s.filter.rest.accel_std_max_g
+    ),
+    num!(
+        46,
+        "rest.bias_meas_floor",
+        "deg/s",
+        DEG,
+        0.0,
+        1.0,
+        "standard deviation added to a still block's bias measurement",
+        |s| s.filter.rest.bias_meas_floor
+    ),
+    flag!(47, "rest.yaw_hold", "undo the yaw integrated over still blocks", |s| s
+        .filter
+        .rest
+        .yaw_hold),
+    // Magnetometer.
+    flag!(50, "mag.enabled", "use the magnetometer for heading", |s| s.filter.mag.enabled),
+    num!(51, "mag.field", "uT", 1.0, 1.0, 1000.0, "expected field strength", |s| s
+        .filter
+        .mag
+        .field_ut),
+    num!(52, "mag.dip", "deg", DEG, -90.0, 90.0, "expected dip, positive down", |s| s
+        .filter
+        .mag
+        .dip),
+    num!(
+        53,
+        "mag.declination",
+        "deg",
+        DEG,
+        -180.0,
+        180.0,
+        "magnetic north east of true north",
+        |s| s.filter.mag.declination
+    ),
+    num!(
+        54,
+        "mag.norm_tolerance",
+        "",
+        1.0,
+        0.0,
+        1.0,
+        "reject when the field norm is off by more than this fraction",
+        |s| s.filter.mag.norm_tolerance
+    ),
+    num!(
+        55,
+        "mag.dip_tolerance",
+        "deg",
+        DEG,
+        0.0,
+        90.0,
+        "reject when the dip is off by more",
+        |s| s.filter.mag.dip_tolerance
+    ),
+    num!(
+        56,
+        "mag.heading_sigma",
+        "deg",
+        DEG,
+        0.01,
+        180.0,
+        "heading measurement standard deviation",
+        |s| s.filter.mag.heading_sigma
+    ),
+    // EKF tuning.
+    flag!(60, "ekf.yaw_split", "accelerometer corrections never change yaw", |s| s
+        .filter
+        .ekf
+        .yaw_split),
+    num!(
+        61,
+        "ekf.accel_var_scale",
+        "",
+        1.0,
+        0.01,
+        1e6,
+        "accelerometer measurement variance, times `noise.accel_var`",
+        |s| s.filter.ekf.accel_var_scale
+    ),
+    num!(62, "ekf.bias_random_walk", "(deg/s)2/s", DEG2, 0.0, 1.0, "gyro-bias random walk", |s| s
+        .filter
+        .ekf
+        .bias_random_walk),
+    num!(
+        63,
+        "ekf.yaw_drift_rate",
+        "deg/h",
+        DEG_H,
+        -3600.0,
+        3600.0,
+        "constant yaw drift subtracted from the yaw integral",
+        |s| s.filter.ekf.yaw_drift_rate
+    ),
+    num!(
+        64,
+        "ekf.initial_tilt_sigma",
+        "deg",
+        DEG,
+        0.01,
+        180.0,
+        "tilt standard deviation after initialisation",
+        |s| s.filter.ekf.initial_tilt_sigma
+    ),
+    num!(
+        65,
+        "ekf.initial_yaw_sigma",
+        "deg",
+        DEG,
+        0.01,
+        180.0,
+        "yaw standard deviation after initialisation",
+        |s| s.filter.ekf.initial_yaw_sigma
+    ),
+    num!(
+        66,
+        "ekf.initial_bias_sigma",
+        "deg/s",
+        DEG,
+        0.001,
+        100.0,
+        "gyro-bias standard deviation after initialisation",
+        |s| s.filter.ekf.initial_bias_sigma
+    ),
+    // Sensor conditioning.
+    axes!(70, "axes.gyro", "gyro axes (LPR430AL X, Y, LY330ALH Z outputs) to body FRD", |s| s
+        .conditioning
+        .gyro_axes),
+    axes!(71, "axes.accel", "accelerometer axes (LSM303DLH) to body FRD", |s| s
+        .conditioning
+        .accel_axes),
+    axes!(72, "axes.mag", "magnetometer axes (LSM303DLH) to body FRD", |s| s.conditioning.mag_axes),
+    vec3!(
+        73,
+        "gyro.offset",
+        "deg/s",
+        DEG,
+        -50.0,
+        50.0,
+        "static gyro bias subtracted after the axis map, body FRD (`GBIAS` sets it)",
+        |s| s.conditioning.gyro_offset
+    ),
+    arr3!(
+        74,
+        "accel_cal.x",
+        "",
+        1.0,
+        -2.0,
+        2.0,
+        "row 1 of the calibration matrix X (weights of raw x), sensor axes",
+        |s| s.conditioning.accel_calibration.x[0]
+    ),
+    arr3!(75, "accel_cal.y", "", 1.0, -2.0, 2.0, "row 2 of X (weights of raw y)", |s| s
+        .conditioning
+        .accel_calibration
+        .x[1]),
+    arr3!(76, "accel_cal.z", "", 1.0, -2.0, 2.0, "row 3 of X (weights of raw z)", |s| s
+        .conditioning
+        .accel_calibration
+        .x[2]),
+    arr3!(77, "accel_cal.o", "g", 1.0, -1.0, 1.0, "row 4 of X: the offset, sensor axes", |s| s
+        .conditioning
+        .accel_calibration
+        .x[3]),
+    vec3!(
+        78,
+        "lever.r",
+        "m",
+        1.0,
+        -10.0,
+        10.0,
+        "IMU position from the rotation centre, body FRD",
+        |s| s.conditioning.lever_arm.r
+    ),
+    flag!(79, "lever.centripetal", "remove the centripetal acceleration", |s| s
+        .conditioning
+        .lever_arm
+        .centripetal),
+    flag!(
+        80,
+        "lever.tangential",
+        "remove the tangential acceleration (differentiated gyro)",
+        |s| s.conditioning.lever_arm.tangential
+    ),
+    num!(
+        81,
+        "lever.tangential_tau",
+        "s",
+        1.0,
+        0.0,
+        10.0,
+        "low-pass time constant of the differentiated gyro",
+        |s| s.conditioning.lever_arm.tangential_time_constant
+    ),
+    // ADC and gyro conversion.
+    Setting {
+        id: 90,
+        name: "adc.vref",
+        kind: Kind::F32,
+        unit: "V",
+        scale: 1.0,
+        min: 1.0,
+        max: 5.0,
+        help: "ADC reference voltage (gyro and depth channels)",
+        get: |s| Value::F32(s.adc.vref_v),
+        set: |s, v| {
+            if let Value::F32(x) = v {
+                s.adc.vref_v = x;
+                s.gyro.scale.vref_v = x;
+            }
+        },
+    },
+    arr3!(
+        91,
+        "gyro.sensitivity",
+        "mV/(deg/s)",
+        1000.0,
+        0.01,
+        1000.0,
+        "gyro sensitivity of the x, y, z outputs",
+        |s| s.gyro.sensitivity_v_per_dps
+    ),
+    num!(
+        92,
+        "gyro.range",
+        "deg/s",
+        1.0,
+        1.0,
+        10000.0,
+        "gyro full scale: the conversion flags rates at or beyond it",
+        |s| s.gyro.range_dps
+    ),
+    // Depth.
+    num!(
+        100,
+        "depth.pa_per_volt",
+        "Pa/V",
+        1.0,
+        1.0,
+        1e9,
+        "depth sensor calibration slope (pressure per volt at the ADC pin)",
+        |s| s.depth.pa_per_volt
+    ),
+    num!(
+        101,
+        "depth.offset",
+        "Pa",
+        1.0,
+        -1e8,
+        1e8,
+        "depth sensor calibration offset (pressure at 0 V)",
+        |s| s.depth.offset_pa
+    ),
+    num!(
+        102,
+        "depth.density",
+        "kg/m3",
+        1.0,
+        500.0,
+        2000.0,
+        "water density (seawater 1025, fresh water 998)",
+        |s| s.depth.water_density_kg_m3
+    ),
+    num!(103, "depth.gravity", "m/s2", 1.0, 9.7, 9.9, "local gravity", |s| s.depth.gravity_m_s2),
+    num!(
+        104,
+        "depth.surface_pressure",
+        "Pa",
+        1.0,
+        -1e7,
+        1e7,
+        "pressure at zero depth (`ZERO` sets it)",
+        |s| s.depth.surface_pressure_pa
+    ),
+    // Rates and output.
+    uint!(110, "filter.rate", "Hz", 10.0, 200.0, "filter rate", |s| s.filter_rate_hz),
+    uint!(111, "output.rate", "Hz", 1.0, 50.0, "output rate (at most the filter rate)", |s| s
+        .output_rate_hz),
+    flag!(112, "output.prdid", "send `$PRDID`", |s| s.sentences.prdid),
+    flag!(113, "output.pinah", "send `$PINAH`", |s| s.sentences.pinah),
+];

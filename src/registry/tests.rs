@@ -1,0 +1,193 @@
+use super::*;
+use ekf_core::mathf;
+
+fn text(setting: &Setting, v: &Value) -> String {
+    let mut s = Sentence::new();
+    setting.write_value(v, &mut s).unwrap();
+    s.body().to_string()
+}
+
+#[test]
+fn ids_and_names_are_unique_and_wire_safe() {
+    for (i, a) in SETTINGS.iter().enumerate() {
+        assert!(!a.name.is_empty() && a.name.len() <= 24, "{}", a.name);
+        assert!(
+            a.name
+                .bytes()
+                .all(|b| b.is_ascii_lowercase() || b.is_ascii_digit() || b == b'.' || b == b'_'),
+            "{}",
+            a.name
+        );
+        assert!(a.unit.is_ascii() && !a.unit.contains('|'));
+        for b in SETTINGS.iter().skip(i + 1) {
+            assert_ne!(a.id, b.id, "{} / {}", a.name, b.name);
+            assert!(!a.name.eq_ignore_ascii_case(b.name));
+        }
+        assert_eq!(find(a.name).map(|s| s.id), Some(a.id));
+        assert_eq!(find(&a.name.to_ascii_uppercase()).map(|s| s.id), Some(a.id));
+        assert_eq!(by_id(a.id).map(|s| s.name), Some(a.name));
+        assert!(a.min <= a.max);
+        assert!(a.scale > 0.0);
+    }
+    assert!(find("no.such").is_none());
+}
+
+#[test]
+fn defaults_are_valid_and_survive_encode_decode_and_text() {
+    let d = PipelineSettings::default();
+    for s in &SETTINGS {
+        let v = s.get(&d);
+        assert_eq!(v.kind(), s.kind, "{}", s.name);
+        assert!(s.check(&v), "{} default {:?} out of range", s.name, v);
+        let mut buf = [0u8; 16];
+        let n = s.encode(&v, &mut buf);
+        assert!(n > 0);
+        assert_eq!(s.decode(&buf[..n]), Some(v), "{}", s.name);
+        // Printed and parsed back: the same text again, and the value within 1e-6.
+        let t = text(s, &v);
+        let fields: Vec<&str> = t.split(',').collect();
+        let back = s.parse(&fields).unwrap_or_else(|e| panic!("{} {t}: {e:?}", s.name));
+        assert_eq!(text(s, &back), t, "{}", s.name);
+        let mut e = d;
+        assert!(s.set(&mut e, back));
+        if let (Value::F32(a), Value::F32(b)) = (v, back) {
+            assert!((a - b).abs() <= 1e-6 * a.abs().max(1e-30), "{} {a} {b}", s.name);
+        }
+    }
+}
+
+#[test]
+fn every_setting_is_independent_of_the_others() {
+    // Setting one entry to a non-default value changes that entry only.
+    let d = PipelineSettings::default();
+    for s in &SETTINGS {
+        let v = match s.get(&d) {
+            Value::F32(_) => Value::F32((s.max / s.scale) as f32),
+            Value::Vec3(_) => Value::Vec3([(s.min / s.scale) as f32; 3]),
+            Value::Bool(b) => Value::Bool(!b),
+            Value::U16(_) => Value::U16(s.max as u16),
+            Value::Axes(m) => {
+                Value::Axes(m.inverse().compose(&AxisMap::new([2, 0, 1], [-1, 1, 1]).unwrap()))
+            }
+        };
+        let mut e = d;
+        assert!(s.set(&mut e, v), "{}", s.name);
+        assert_eq!(s.get(&e), v, "{}", s.name);
+        assert_ne!(e, d, "{} did not change anything", s.name);
+        for o in SETTINGS.iter().filter(|o| o.id != s.id) {
+            // adc.vref also sets the gyro conversion's copy of the reference.
+            assert_eq!(o.get(&e), o.get(&d), "{} changed {}", s.name, o.name);
+        }
+    }
+}
+
+#[test]
+fn user_units_are_converted() {
+    let mut d = PipelineSettings::default();
+    let yaw = find("init.yaw0").unwrap();
+    assert!(yaw.set(&mut d, yaw.parse(&["90"]).unwrap()));
+    assert!((d.filter.init.initial_yaw - mathf::deg(90.0)).abs() < 1e-7);
+    let drift = find("ekf.yaw_drift_rate").unwrap();
+    assert!(drift.set(&mut d, drift.parse(&["16.2"]).unwrap()));
+    assert!((d.filter.ekf.yaw_drift_rate - mathf::deg(16.2) / 3600.0).abs() < 1e-10);
+    assert_eq!(text(drift, &drift.get(&d)), "16.2");
+    let sens = find("gyro.sensitivity").unwrap();
+    assert_eq!(text(sens, &sens.get(&PipelineSettings::default())), "3.33,3.33,3.752");
+    let var = find("noise.gyro_var").unwrap();
+    assert_eq!(text(var, &var.get(&PipelineSettings::default())), "0.337,0.275,0.00419");
+    let rw = find("ekf.bias_random_walk").unwrap();
+    assert_eq!(text(rw, &rw.get(&PipelineSettings::default())), "4e-6");
+    let vref = find("adc.vref").unwrap();
+    assert!(vref.set(&mut d, Value::F32(3.0)));
+    assert_eq!((d.adc.vref_v, d.gyro.scale.vref_v), (3.0, 3.0));
+    let axes = find("axes.accel").unwrap();
+    assert_eq!(text(axes, &axes.get(&PipelineSettings::default())), "x,-y,-z");
+    let v = axes.parse(&["-Y", "+x", "z"]).unwrap();
+    assert_eq!(text(axes, &v), "-y,x,z");
+}
+
+#[test]
+fn bad_values_are_refused_with_the_right_reason() {
+    let f = find("gate.norm_tolerance").unwrap();
+    assert_eq!(f.parse(&[]), Err(ValueError::Args));
+    assert_eq!(f.parse(&["0.1", "0.2"]), Err(ValueError::Args));
+    assert_eq!(f.parse(&["abc"]), Err(ValueError::Type));
+    assert_eq!(f.parse(&["nan"]), Err(ValueError::Type));
+    assert_eq!(f.parse(&[""]), Err(ValueError::Type));
+    assert_eq!(f.parse(&["2"]), Err(ValueError::Range));
+    assert_eq!(f.parse(&["1e999"]), Err(ValueError::Range));
+    assert_eq!(f.parse(&["0"]), Err(ValueError::Range));
+    let r = find("filter.rate").unwrap();
+    assert_eq!(r.parse(&["50.5"]), Err(ValueError::Type));
+    assert_eq!(r.parse(&["-50"]), Err(ValueError::Type));
+    assert_eq!(r.parse(&["201"]), Err(ValueError::Range));
+    assert_eq!(r.parse(&["99999"]), Err(ValueError::Range));
+    assert_eq!(r.parse(&["100"]), Ok(Value::U16(100)));
+    let b = find("rest.enabled").unwrap();
+    assert_eq!(b.parse(&["2"]), Err(ValueError::Type));
+    assert_eq!(b.parse(&["true"]), Err(ValueError::Type));
+    let v = find("lever.r").unwrap();
+    assert_eq!(v.parse(&["1", "2"]), Err(ValueError::Args));
+    assert_eq!(v.parse(&["1", "x", "99"]), Err(ValueError::Type));
+    assert_eq!(v.parse(&["1", "99", "x"]), Err(ValueError::Type));
+    assert_eq!(v.parse(&["1", "99", "0"]), Err(ValueError::Range));
+    let a = find("axes.gyro").unwrap();
+    assert_eq!(a.parse(&["x", "x", "z"]), Err(ValueError::Range));
+    assert_eq!(a.parse(&["x", "w", "z"]), Err(ValueError::Type));
+    assert_eq!(a.parse(&["x", "--y", "z"]), Err(ValueError::Type));
+    // Decoding refuses wrong lengths, bad bytes and out-of-range values.
+    assert_eq!(f.decode(&[0, 0, 0]), None);
+    assert_eq!(f.decode(&2.0f32.to_le_bytes()), None);
+    assert_eq!(f.decode(&f32::NAN.to_le_bytes()), None);
+    assert_eq!(b.decode(&[2]), None);
+    assert_eq!(a.decode(&[0, 0, 2]), None);
+    assert_eq!(a.decode(&[0x04, 1, 2]), None);
+    assert_eq!(r.decode(&500u16.to_le_bytes()), None);
+    assert!(!f.set(&mut PipelineSettings::default(), Value::Bool(true)));
+}
+
+#[test]
+fn the_longest_get_reply_and_set_command_fit_a_sentence() {
+    // Worst-case value text: 13 characters per number.
+    for s in &SETTINGS {
+        let value_len = match s.kind {
+            Kind::F32 => 13,
+            Kind::Vec3 => 3 * 13 + 2,
+            Kind::Bool => 1,
+            Kind::U16 => 5,
+            Kind::Axes => 8,
+        };
+        let reply = "PINAR,OK,GET,".len() + s.name.len() + 1 + value_len;
+        assert!(reply <= crate::nmea::MAX_BODY_LEN, "{} reply {reply}", s.name);
+        let cmd = "$PINAC,SET,".len() + s.name.len() + 1 + value_len + "*hh\r\n".len();
+        assert!(cmd <= crate::nmea::MAX_SENTENCE_LEN, "{} command {cmd}", s.name);
+    }
+}
+
+/// The registry table of `docs/commands.md` matches the code row by row.
+#[test]
+fn docs_list_every_setting_exactly() {
+    let doc = include_str!("../../docs/commands.md");
+    let mut missing = Vec::new();
+    for s in &SETTINGS {
+        let mut row = String::new();
+        s.doc_row(&mut row).unwrap();
+        if !doc.lines().any(|l| l == row) {
+            missing.push(row);
+        }
+        assert!(doc.contains(&format!("`{}`", s.name)), "{} not in docs/commands.md", s.name);
+    }
+    assert!(missing.is_empty(), "rows missing from docs/commands.md:\n{}", missing.join("\n"));
+}
+
+/// Prints the registry table for `docs/commands.md`:
+/// `cargo test -p inemo-ahrs --lib print_doc_rows -- --ignored --nocapture`.
+#[test]
+#[ignore]
+fn print_doc_rows() {
+    for s in &SETTINGS {
+        let mut row = String::new();
+        s.doc_row(&mut row).unwrap();
+        println!("{row}");
+    }
+}
