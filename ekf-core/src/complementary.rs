@@ -6,12 +6,8 @@
 //! directly.
 
 use crate::{
-    filter::AttitudeFilter,
-    gate::{AccelGate, PreCheck},
-    init::{self, InitStep, Initializer},
-    mathf,
-    settings::Settings,
-    validate, Flags, ImuSample, Quaternion, Vec3,
+    filter::AttitudeFilter, gate::PreCheck, mathf, settings::Settings, Flags, GyroOnly, ImuSample,
+    Quaternion, Vec3,
 };
 
 /// Complementary-filter parameters.
@@ -36,25 +32,15 @@ impl Default for ComplementaryParams {
 /// The quaternion complementary filter (gyro bias from the initialisation window, fixed).
 #[derive(Clone, Debug)]
 pub struct Complementary {
-    settings: Settings,
+    /// Input checks, initialisation window and gyro prediction.
+    gyro: GyroOnly,
     params: ComplementaryParams,
-    q: Quaternion,
-    bias: Vec3,
-    init: Option<Initializer>,
-    gate: AccelGate,
 }
 
 impl Complementary {
     /// A new filter, starting its initialisation window.
     pub fn new(settings: Settings, params: ComplementaryParams) -> Self {
-        Complementary {
-            settings,
-            params,
-            q: Quaternion::from_yaw(settings.init.initial_yaw),
-            bias: settings.init.gyro_bias,
-            init: Some(Initializer::new(settings.init)),
-            gate: AccelGate::new(settings.gate),
-        }
+        Complementary { gyro: GyroOnly::new(settings), params }
     }
 
     /// The parameters in use.
@@ -77,7 +63,8 @@ impl Complementary {
 
     fn correct(&mut self, a_g: Vec3, norm_g: f32, dt: f32) {
         let d_body = a_g * (-1.0 / norm_g);
-        let g = self.q.rotate(d_body);
+        let q = self.gyro.attitude();
+        let g = q.rotate(d_body);
         let dq = Self::delta_to_down(g);
         let alpha = (self.params.gain * dt * self.params.gain_rate_hz).clamp(0.0, 1.0);
         // Angle of dq is 2·acos(w): LERP below the threshold, else SLERP.
@@ -87,7 +74,7 @@ impl Complementary {
         } else {
             Quaternion::IDENTITY.slerp(dq, alpha)
         };
-        self.q = (step * self.q).normalized();
+        self.gyro.set_q(step * q);
     }
 }
 
@@ -97,29 +84,17 @@ impl AttitudeFilter for Complementary {
     }
 
     fn update(&mut self, sample: &ImuSample) -> Flags {
-        let Some(c) = validate::check(sample, &self.settings.limits) else {
-            return Flags::TIME_GAP;
+        let c = match self.gyro.propagate(sample) {
+            Ok(c) => c,
+            Err(flags) => return flags,
         };
         let mut flags = c.flags;
-        if let Some(init) = self.init.as_mut() {
-            match init::feed(init, &mut self.gate, &c) {
-                InitStep::Pending(q) => {
-                    self.q = q;
-                    return flags | Flags::INITIALISING;
-                }
-                // The window's last sample still moves the state (below).
-                InitStep::Done(q, b) => self.set_attitude(q, b),
-            }
-        }
-        if let Some(g) = c.gyro {
-            let w = g - self.bias;
-            self.q = (self.q * Quaternion::from_rotation_vector(w * c.dt_rate)).normalized();
-        }
         if let Some((a, n)) = c.accel_g {
-            match self.gate.pre_check(c.dt_rate, a, n) {
+            let gate = self.gyro.gate_mut();
+            match gate.pre_check(c.dt_rate, a, n) {
                 PreCheck::Reject(f) => flags |= f,
                 PreCheck::Pass { .. } => {
-                    self.gate.accepted();
+                    gate.accepted();
                     self.correct(a, n, c.dt_rate);
                     flags |= Flags::ACCEL_USED;
                 }
@@ -129,36 +104,27 @@ impl AttitudeFilter for Complementary {
     }
 
     fn attitude(&self) -> Quaternion {
-        self.q
+        self.gyro.attitude()
     }
 
     fn gyro_bias(&self) -> Vec3 {
-        self.bias
+        self.gyro.gyro_bias()
     }
 
     fn is_initialised(&self) -> bool {
-        self.init.is_none()
+        self.gyro.is_initialised()
     }
 
     fn set_yaw(&mut self, yaw: f32) {
-        if !yaw.is_finite() {
-            return;
-        }
-        match self.init.as_mut() {
-            Some(init) => init.set_yaw(yaw),
-            None => self.q = self.q.with_yaw(yaw),
-        }
+        self.gyro.set_yaw(yaw);
     }
 
     fn set_attitude(&mut self, q: Quaternion, bias: Vec3) {
-        self.q = q.normalized();
-        self.bias = if bias.is_finite() { bias } else { self.settings.init.gyro_bias };
-        self.init = None;
-        self.gate.reset();
+        self.gyro.set_attitude(q, bias);
     }
 
     fn reset(&mut self) {
-        *self = Complementary::new(self.settings, self.params);
+        self.gyro.reset();
     }
 }
 

@@ -1,5 +1,6 @@
 //! Gyro integration only: the source's "no filter" baseline. It diverges with any residual
-//! bias; it is here to show what every correction buys.
+//! bias; it is here to show what every correction buys. It is also the prediction stage of the
+//! complementary filter.
 
 use crate::{
     filter::AttitudeFilter,
@@ -32,20 +33,17 @@ impl GyroOnly {
     }
 }
 
-impl AttitudeFilter for GyroOnly {
-    fn name(&self) -> &'static str {
-        "gyro"
-    }
-
-    fn update(&mut self, sample: &ImuSample) -> Flags {
-        let Some(c) = validate::check(sample, &self.settings.limits) else {
-            return Flags::TIME_GAP;
-        };
+impl GyroOnly {
+    /// The steps shared with the complementary filter: input checks, the initialisation
+    /// window, and the gyro integration. `Err(flags)` when the sample ends there (unusable
+    /// `dt`, or the window still running), `Ok` with the checked sample otherwise.
+    pub(crate) fn propagate(&mut self, sample: &ImuSample) -> Result<validate::Checked, Flags> {
+        let c = validate::check(sample, &self.settings.limits).ok_or(Flags::TIME_GAP)?;
         if let Some(init) = self.init.as_mut() {
             match init::feed(init, &mut self.gate, &c) {
                 InitStep::Pending(q) => {
                     self.q = q;
-                    return c.flags | Flags::INITIALISING;
+                    return Err(c.flags | Flags::INITIALISING);
                 }
                 // The window's last sample still moves the state (below).
                 InitStep::Done(q, b) => self.set_attitude(q, b),
@@ -55,7 +53,30 @@ impl AttitudeFilter for GyroOnly {
             let w = g - self.bias;
             self.q = (self.q * Quaternion::from_rotation_vector(w * c.dt_rate)).normalized();
         }
-        c.flags
+        Ok(c)
+    }
+
+    /// The accelerometer gate (the complementary filter uses its first stage).
+    pub(crate) fn gate_mut(&mut self) -> &mut AccelGate {
+        &mut self.gate
+    }
+
+    /// Replace the attitude (normalised here).
+    pub(crate) fn set_q(&mut self, q: Quaternion) {
+        self.q = q.normalized();
+    }
+}
+
+impl AttitudeFilter for GyroOnly {
+    fn name(&self) -> &'static str {
+        "gyro"
+    }
+
+    fn update(&mut self, sample: &ImuSample) -> Flags {
+        match self.propagate(sample) {
+            Ok(c) => c.flags,
+            Err(flags) => flags,
+        }
     }
 
     fn attitude(&self) -> Quaternion {
@@ -84,6 +105,7 @@ impl AttitudeFilter for GyroOnly {
         self.q = q.normalized();
         self.bias = if bias.is_finite() { bias } else { self.settings.init.gyro_bias };
         self.init = None;
+        self.gate.reset();
     }
 
     fn reset(&mut self) {

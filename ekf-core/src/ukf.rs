@@ -22,11 +22,10 @@
 use nalgebra::SMatrix;
 
 use crate::{
-    filter::AttitudeFilter,
     mathf::deg,
     settings::Settings,
     unscented::{Core, SigmaSet, Tuning, N},
-    Flags, ImuSample, Quaternion, Vec3,
+    Flags,
 };
 
 /// Number of sigma points, `2n + 1`.
@@ -44,7 +43,7 @@ pub struct UkfParams {
     /// Default 2 (source).
     pub beta: f32,
     /// Accelerometer measurement variance as a multiple of
-    /// [`crate::settings::NoiseSettings::accel_var`]. Default 10 (as the EKF).
+    /// [`crate::settings::NoiseSettings::accel_var`]. Default 1 (as the EKF).
     pub accel_var_scale: f32,
     /// Gyro-bias random walk, (rad/s)²/s per axis. Default (0.002 °/s)²/s.
     pub bias_random_walk: f32,
@@ -65,7 +64,7 @@ impl Default for UkfParams {
             alpha: 0.1,
             kappa: 3.0,
             beta: 2.0,
-            accel_var_scale: 10.0,
+            accel_var_scale: 1.0,
             bias_random_walk: deg(0.002) * deg(0.002),
             initial_tilt_sigma: deg(2.0),
             initial_yaw_sigma: deg(5.0),
@@ -194,43 +193,12 @@ impl Default for Ukf {
     }
 }
 
-impl AttitudeFilter for Ukf {
-    fn name(&self) -> &'static str {
-        "ukf"
-    }
-
-    fn update(&mut self, sample: &ImuSample) -> Flags {
-        self.core.update(sample)
-    }
-
-    fn attitude(&self) -> Quaternion {
-        self.core.attitude()
-    }
-
-    fn gyro_bias(&self) -> Vec3 {
-        self.core.gyro_bias()
-    }
-
-    fn is_initialised(&self) -> bool {
-        self.core.is_initialised()
-    }
-
-    fn set_yaw(&mut self, yaw: f32) {
-        self.core.set_yaw(yaw);
-    }
-
-    fn set_attitude(&mut self, q: Quaternion, bias: Vec3) {
-        self.core.start(q, bias);
-    }
-
-    fn reset(&mut self) {
-        self.core.reset();
-    }
-}
+crate::unscented::impl_attitude_filter_for_core!(Ukf, "ukf");
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::filter::AttitudeFilter;
     use crate::unscented::testkit;
 
     #[test]

@@ -1078,3 +1078,43 @@ mod tests {
         assert!((c.p - p_before).abs().max() > 1e-6);
     }
 }
+
+/// `AttitudeFilter` for a wrapper around [`Core`] (its field `core`), named `$name`.
+macro_rules! impl_attitude_filter_for_core {
+    ($ty:ty, $name:literal) => {
+        impl $crate::filter::AttitudeFilter for $ty {
+            fn name(&self) -> &'static str {
+                $name
+            }
+
+            fn update(&mut self, sample: &$crate::ImuSample) -> $crate::Flags {
+                self.core.update(sample)
+            }
+
+            fn attitude(&self) -> $crate::Quaternion {
+                self.core.attitude()
+            }
+
+            fn gyro_bias(&self) -> $crate::Vec3 {
+                self.core.gyro_bias()
+            }
+
+            fn is_initialised(&self) -> bool {
+                self.core.is_initialised()
+            }
+
+            fn set_yaw(&mut self, yaw: f32) {
+                self.core.set_yaw(yaw);
+            }
+
+            fn set_attitude(&mut self, q: $crate::Quaternion, bias: $crate::Vec3) {
+                self.core.start(q, bias);
+            }
+
+            fn reset(&mut self) {
+                self.core.reset();
+            }
+        }
+    };
+}
+pub(crate) use impl_attitude_filter_for_core;
