@@ -1,18 +1,25 @@
 //! The iNEMO V2 firmware: an RTIC 2 application for the STM32F103RE that moves data between
 //! the board's peripherals and the library's [`Pipeline`](inemo_ahrs::pipeline::Pipeline).
 //!
-//! Tasks (priority: higher preempts lower):
+//! Tasks (priority: higher preempts lower; `usart2_rx` and `command`, the settings loaded
+//! from flash and everything marked *commands* only with the feature `serial-commands`):
 //!
 //! | task | kind | prio | does |
 //! |---|---|---|---|
 //! | `adc_frame` | hardware, DMA1_CHANNEL1 | 3 | copies the finished ADC frame (1 kHz) into the shared `Averager` |
-//! | `filter` | async, every 1/filter_rate_hz (SysTick monotonic) | 2 | reads the LSM303DLH, takes the ADC mean, runs `Pipeline::step`, starts the USART DMA |
+//! | `usart2_rx` | hardware, USART2 (RXNE) | 3 | received bytes → `LineAssembler`; complete lines queued for `command` |
+//! | `filter` | async, every 1/filter_rate_hz (SysTick monotonic) | 2 | applies pending command actions (*commands*), reads the LSM303DLH, takes the ADC mean, runs `Pipeline::step` and `Device::on_cycle` (*commands*), starts the USART DMA (sentences + queued replies), feeds the watchdog |
+//! | `command` | async, spawned per received line | 1 | `Device::handle` (may write the settings flash), queues the reply and the action |
 //! | `blink` | async, 50 ms slots | 1 | LED pattern from the status the filter reported |
 //!
 //! Messages: `adc_frame` → `filter` through the shared [`AdcShared`](app::AdcShared) (frames
 //! averaged in place, lost frames and DMA errors counted); `filter` → `blink` through the
-//! shared [`Health`](app::led::Health) (union of the cycles' status words and a cycle count).
+//! shared [`Health`](app::led::Health) (union of the cycles' status words and a cycle count);
+//! with `serial-commands`, `usart2_rx` → `command` through the shared [`RxLines`](app::commands::RxLines) ring;
+//! `command` → `filter` through the shared [`CommandState`](app::commands::CommandState)
+//! (the `Device`, the replies waiting for the transmitter and the pending actions).
 //! TIM3 triggers the ADC scans in hardware; DMA1 channel 7 sends the sentences without the CPU.
+//! The independent watchdog is fed only at the end of a healthy filter cycle (see `filter`).
 //!
 //! Nothing on the running path unwraps or panics: sensor and bus errors become status bits
 //! (`$PINAH` bits 16–19) and LED patterns. `expect` appears only in `init`, for programming
@@ -45,11 +52,24 @@ mod firmware {
     use core::num::NonZeroU32;
 
     use cortex_m::peripheral::DWT;
+    use ekf_core::Flags;
+    #[cfg(feature = "serial-commands")]
+    use ekf_core::{AttitudeFilter, ImuSample};
+    #[cfg(not(feature = "serial-commands"))]
+    use inemo_ahrs::pipeline::PipelineSettings;
     use inemo_ahrs::{
         adc::SCAN_LEN,
         board,
         nmea::{NmeaError, Sentence, Status},
-        pipeline::{Inputs, Pipeline, PipelineSettings},
+        pipeline::{Inputs, Pipeline},
+    };
+    // The types of the command layer's local resources are named in both variants (RTIC's
+    // generated code names them even when their `#[cfg]` is off).
+    use inemo_ahrs::command::LineAssembler;
+    #[cfg(feature = "serial-commands")]
+    use inemo_ahrs::{
+        command::Device,
+        persist::{self, Source},
     };
     use rtic_monotonics::{fugit::MonotonicTimerInstant, systick::prelude::*};
     use stm32f1xx_hal::{
@@ -59,7 +79,11 @@ mod firmware {
         serial::{Config, Serial},
         time::{Bps, Hertz},
     };
+    use stm32f1xx_hal::{pac::USART2, serial::Rx};
 
+    #[cfg(feature = "serial-commands")]
+    use crate::app::commands::{CommandState, Ring, RxLines, REPLY_SLOTS};
+    use crate::app::settings_flash::SettingsFlash;
     use crate::app::{
         adc_scan::{self, AdcPins, AdcScan},
         clocks::{self, ClockSource, ResetCause},
@@ -67,6 +91,7 @@ mod firmware {
         imu::{self, Imu},
         led::{self, Health},
         uart_tx::{DmaTx, TX_BUF_LEN},
+        watchdog::Watchdog,
         AdcShared,
     };
 
@@ -79,16 +104,31 @@ mod firmware {
     /// LY330ALH turn-on time is a few hundred ms); ADC frames of that time are discarded.
     const GYRO_SETTLE_MS: u32 = 500;
 
-    /// The pipeline's settings: `PipelineSettings::default()` (50 Hz filter, 10 Hz output).
-    /// Set `filter_rate_hz` here for another rate (up to 200 Hz); everything follows it.
-    fn settings() -> PipelineSettings {
-        PipelineSettings::default()
-    }
+    /// Consecutive cycles with an estimator health reset (`Flags::HEALTH_RESET`) after which
+    /// the cycles no longer count as healthy and the watchdog is no longer fed.
+    const HEALTH_RESET_STORM: u32 = 10;
+    /// Reads of the USART per RX interrupt at most (one byte is normally waiting).
+    #[cfg(feature = "serial-commands")]
+    const RX_READS_PER_IRQ: u8 = 4;
+
+    // The command layer's shared resources: `()` without `serial-commands`. (A `#[cfg]` on a
+    // locked shared resource does not build when it is on: RTIC 2.4 puts the attribute on an
+    // expression in the resource's lock.)
+    #[cfg(feature = "serial-commands")]
+    type RxShared = RxLines;
+    #[cfg(feature = "serial-commands")]
+    type CmdShared = CommandState;
+    #[cfg(not(feature = "serial-commands"))]
+    type RxShared = ();
+    #[cfg(not(feature = "serial-commands"))]
+    type CmdShared = ();
 
     #[shared]
     struct Shared {
         adc: AdcShared,
         health: Health,
+        rx: RxShared,
+        cmd: CmdShared,
     }
 
     #[local]
@@ -99,6 +139,11 @@ mod firmware {
         tx: DmaTx,
         led: PB9<Output<PushPull>>,
         sysclk_hz: u32,
+        #[cfg(feature = "serial-commands")]
+        serial_rx: Rx<USART2>,
+        #[cfg(feature = "serial-commands")]
+        flash: SettingsFlash,
+        watchdog: Watchdog,
     }
 
     #[init(local = [
@@ -114,7 +159,24 @@ mod firmware {
         core.DWT.enable_cycle_counter();
 
         let reset = clocks::take_reset_cause(&dp.RCC);
-        let (mut rcc, source) = clocks::freeze(dp.RCC, dp.FLASH);
+        // From here a hang resets the MCU (first feed at the end of the first healthy cycle).
+        let watchdog = Watchdog::start(dp.IWDG, &dp.DBGMCU);
+        #[cfg_attr(not(feature = "serial-commands"), allow(unused_variables))]
+        let (mut rcc, source, flash) = clocks::freeze(dp.RCC, dp.FLASH);
+
+        // The settings: the newest valid flash record, else the defaults.
+        #[cfg(feature = "serial-commands")]
+        let (flash, loaded, device, settings) = {
+            let flash = SettingsFlash::new(flash);
+            let loaded = persist::load(&flash);
+            let device = Device::new(&loaded, reset.tag());
+            let settings = *device.settings();
+            (flash, loaded, device, settings)
+        };
+        // Without the command layer: `PipelineSettings::default()` (50 Hz filter, 10 Hz
+        // output). Set `filter_rate_hz` here for another rate (up to 200 Hz).
+        #[cfg(not(feature = "serial-commands"))]
+        let settings = PipelineSettings::default();
         let clocks = rcc.clocks;
         let sysclk_hz = clocks.sysclk().raw();
         // Asserts that SYSCLK is a multiple of the tick rate: 72 and 64 MHz both are, so a
@@ -134,7 +196,8 @@ mod firmware {
 
         let dma1 = dp.DMA1.split(&mut rcc);
 
-        // USART2: TX PA2 by DMA1 channel 7; RX PA3 (commands: not yet).
+        // USART2: TX PA2 by DMA1 channel 7; RX PA3 (commands, feature `serial-commands`) by
+        // the RXNE interrupt.
         let usart2_dr = dp.USART2.dr().as_ptr() as u32;
         let serial = Serial::new(
             dp.USART2,
@@ -142,6 +205,13 @@ mod firmware {
             Config::default().baudrate(Bps(board::USART_BAUD)),
             &mut rcc,
         );
+        #[cfg(feature = "serial-commands")]
+        let (tx, serial_rx) = {
+            let (tx, mut serial_rx) = serial.split();
+            serial_rx.listen();
+            (tx, serial_rx)
+        };
+        #[cfg(not(feature = "serial-commands"))]
         let (tx, _rx) = serial.split();
         let mut tx = DmaTx::new(tx.with_dma(dma1.7), cx.local.tx_buf, usart2_dr);
 
@@ -157,7 +227,6 @@ mod firmware {
             imu::ADDR_TIMEOUT_US,
             imu::DATA_TIMEOUT_US,
         );
-        let settings = settings();
         let mut imu = Imu::new(i2c, settings.filter_rate_hz);
         // A failure here is not fatal: the filter retries once per second meanwhile.
         let imu_error = imu.configure().err();
@@ -196,7 +265,26 @@ mod firmware {
         if source == ClockSource::Hsi {
             defmt::error!("HSE did not start: running from HSI at 64 MHz");
         }
-        match boot_sentence(source, reset, imu.configured()) {
+        #[cfg(feature = "serial-commands")]
+        match loaded.source {
+            Source::Flash { page, seq } => defmt::println!(
+                "settings: flash page {=str}, sequence {=u32}, {=u16} entries skipped, {=u16} settings missing",
+                page.name(),
+                seq,
+                loaded.skipped,
+                loaded.missing
+            ),
+            Source::Defaults => defmt::println!("settings: no valid flash record, defaults"),
+        }
+        // With `serial-commands` the boot sentence says where the settings came from.
+        #[cfg(feature = "serial-commands")]
+        let settings_field = Some(match loaded.source {
+            Source::Flash { page, .. } => page.name(),
+            Source::Defaults => "DEFAULTS",
+        });
+        #[cfg(not(feature = "serial-commands"))]
+        let settings_field = None;
+        match boot_sentence(source, reset, imu.configured(), settings_field) {
             Ok(s) => {
                 tx.send([s.as_bytes()]);
             }
@@ -208,18 +296,44 @@ mod firmware {
         blink::spawn().expect("blink task spawned twice");
 
         (
-            Shared { adc: AdcShared::default(), health: Health::default() },
-            Local { adc_scan, imu, pipeline: Pipeline::new(settings), tx, led, sysclk_hz },
+            Shared {
+                adc: AdcShared::default(),
+                health: Health::default(),
+                #[cfg(feature = "serial-commands")]
+                rx: RxLines::default(),
+                #[cfg(feature = "serial-commands")]
+                cmd: CommandState::new(device),
+                #[cfg(not(feature = "serial-commands"))]
+                rx: (),
+                #[cfg(not(feature = "serial-commands"))]
+                cmd: (),
+            },
+            Local {
+                adc_scan,
+                imu,
+                pipeline: Pipeline::new(settings),
+                tx,
+                led,
+                sysclk_hz,
+                #[cfg(feature = "serial-commands")]
+                serial_rx,
+                #[cfg(feature = "serial-commands")]
+                flash,
+                watchdog,
+            },
         )
     }
 
-    /// `$PINAB,<clock>,<reset cause>,<imu>,<version>*hh`: sent once at boot.
+    /// `$PINAB,<clock>,<reset cause>,<imu>,<version>[,<settings>]*hh`: sent once at boot.
     /// clock `HSE72` | `HSI64`; reset `POR` `PIN` `SFT` `IWDG` `WWDG` `LPWR` `UNK`;
-    /// imu `OK` | `FAIL` (LSM303DLH configured or not).
+    /// imu `OK` | `FAIL` (LSM303DLH configured or not); settings (only with the feature
+    /// `serial-commands`) `A` | `B` (the flash page they were loaded from) | `DEFAULTS` (no
+    /// valid record).
     fn boot_sentence(
         source: ClockSource,
         reset: ResetCause,
         imu_ok: bool,
+        settings: Option<&str>,
     ) -> Result<Sentence, NmeaError> {
         let mut s = Sentence::new();
         let imu = if imu_ok { "OK" } else { "FAIL" };
@@ -227,6 +341,10 @@ mod firmware {
             ["PINAB,", source.tag(), ",", reset.tag(), ",", imu, ",", env!("CARGO_PKG_VERSION")]
         {
             s.push_str(field)?;
+        }
+        if let Some(settings) = settings {
+            s.push_str(",")?;
+            s.push_str(settings)?;
         }
         s.finish()?;
         Ok(s)
@@ -246,6 +364,96 @@ mod firmware {
         cx.shared.adc.lock(|adc| adc.record(&serviced));
     }
 
+    /// Received bytes: into the line assembler; a complete line is queued for `command`.
+    #[cfg(feature = "serial-commands")]
+    #[task(binds = USART2, priority = 3, local = [serial_rx, assembler: LineAssembler = LineAssembler::new()], shared = [rx])]
+    fn usart2_rx(mut cx: usart2_rx::Context) {
+        for _ in 0..RX_READS_PER_IRQ {
+            if !cx.local.serial_rx.is_rx_not_empty() && !rx_error() {
+                break;
+            }
+            match cx.local.serial_rx.read() {
+                Ok(byte) => {
+                    if let Some(event) = cx.local.assembler.push(byte) {
+                        cx.shared.rx.lock(|rx| rx.lines.push(event));
+                        // Already running: it takes the line before it ends (or the filter
+                        // task spawns it again at its next cycle).
+                        let _ = command::spawn();
+                    }
+                }
+                Err(_) => cx.shared.rx.lock(|rx| rx.errors = rx.errors.saturating_add(1)),
+            }
+        }
+    }
+
+    /// A receive error flag (overrun, noise, framing, parity) of USART2 is set.
+    #[cfg(feature = "serial-commands")]
+    fn rx_error() -> bool {
+        // SAFETY: a read of the status register; the flags are cleared by the read sequence
+        // in `Rx::read`, which only `usart2_rx` calls.
+        let sr = unsafe { (*USART2::ptr()).sr().read() };
+        sr.ore().bit_is_set()
+            || sr.ne().bit_is_set()
+            || sr.fe().bit_is_set()
+            || sr.pe().bit_is_set()
+    }
+
+    /// Executes the queued command lines: the reply and the action go to the filter task.
+    /// `SAVE` writes the flash here (the CPU stalls for the erase, a few filter cycles late).
+    #[cfg(feature = "serial-commands")]
+    #[task(priority = 1, local = [flash], shared = [rx, cmd])]
+    async fn command(mut cx: command::Context) {
+        while let Some(event) = cx.shared.rx.lock(|rx| rx.lines.pop()) {
+            let flash = &mut *cx.local.flash;
+            cx.shared.cmd.lock(|c| {
+                let response = c.device.handle(&event, flash);
+                c.record(response.reply, response.action);
+            });
+        }
+    }
+
+    /// Sends the cycle's `sentences`, then queued `replies` while the batch stays within
+    /// `budget` bytes (what the USART sends in one filter period; one reply always goes when
+    /// the batch is otherwise empty). While the previous transfer runs the sentences are
+    /// dropped (counted) and the replies wait.
+    #[cfg(feature = "serial-commands")]
+    fn transmit<'a>(
+        tx: &mut DmaTx,
+        sentences: impl Iterator<Item = &'a Sentence>,
+        replies: &mut Ring<Sentence, REPLY_SLOTS>,
+        budget: usize,
+    ) {
+        let Some(mut batch) = tx.begin() else {
+            tx.dropped = tx.dropped.saturating_add(sentences.count() as u32);
+            return;
+        };
+        for s in sentences {
+            if !batch.push(s.as_bytes()) {
+                batch.count_dropped();
+            }
+        }
+        while let Some(reply) = replies.peek() {
+            let part = reply.as_bytes();
+            let fits = batch.is_empty() || batch.len() + part.len() <= budget;
+            if !fits || !batch.push(part) {
+                break;
+            }
+            replies.pop();
+        }
+        batch.start();
+    }
+
+    /// Filter timing for a rate: (period in ticks, nominal dt s, cycles between log lines,
+    /// USART bytes per period).
+    fn timing(rate_hz: u16) -> (u32, f32, NonZeroU32, usize) {
+        let rate = u32::from(rate_hz.max(1));
+        let period = ((MONO_HZ + rate / 2) / rate).max(1);
+        let stats_every = NonZeroU32::new(rate * 10).unwrap_or(NonZeroU32::MIN);
+        // 10 bits per byte (8N1).
+        let budget = (board::USART_BAUD / 10 / rate) as usize;
+        (period, period as f32 / MONO_HZ as f32, stats_every, budget)
+    }
+
     /// True when tick `a` is later than tick `b` (wrap-aware, as the timer queue compares).
     fn later(a: u32, b: u32) -> bool {
         (a.wrapping_sub(b) as i32) > 0
@@ -257,15 +465,21 @@ mod firmware {
     }
 
     /// The filter: one cycle every 1/filter_rate_hz.
-    #[task(priority = 2, local = [imu, pipeline, tx, sysclk_hz], shared = [adc, health])]
+    ///
+    /// A cycle is healthy when it runs to its end and the estimator has not reported a health
+    /// reset in each of the last [`HEALTH_RESET_STORM`] cycles; only then is the watchdog fed.
+    #[task(priority = 2, local = [imu, pipeline, tx, sysclk_hz, watchdog], shared = [adc, health, rx, cmd])]
     async fn filter(mut cx: filter::Context) {
-        let rate = u32::from(cx.local.pipeline.settings().filter_rate_hz.max(1));
-        let period = ((MONO_HZ + rate / 2) / rate).max(1);
-        let nominal_dt = period as f32 / MONO_HZ as f32;
+        #[cfg(feature = "serial-commands")]
+        let (mut period, mut nominal_dt, mut stats_every, mut budget) =
+            timing(cx.local.pipeline.settings().filter_rate_hz);
+        #[cfg(not(feature = "serial-commands"))]
+        let (period, nominal_dt, stats_every, _) =
+            timing(cx.local.pipeline.settings().filter_rate_hz);
         let sysclk = *cx.local.sysclk_hz;
         // Non-zero divisors: no division-by-zero check (and panic path) in the loop.
         let cycles_per_us = NonZeroU32::new(sysclk / 1_000_000).unwrap_or(NonZeroU32::MIN);
-        let stats_every = NonZeroU32::new(rate * 10).unwrap_or(NonZeroU32::MIN);
+        let mut resets_in_row = 0u32;
 
         // Let the gyros settle, then drop the frames of that time.
         let mut next = Mono::now().as_ticks().wrapping_add(GYRO_SETTLE_MS * (MONO_HZ / 1000));
@@ -305,23 +519,80 @@ mod firmware {
                 board_status.insert(Status::I2C_FAULT);
             }
 
-            let step = cx.local.pipeline.step(&Inputs {
+            let inputs = Inputs {
                 dt,
                 adc,
                 accel_g: reading.accel_g,
                 mag_ut: reading.mag_ut,
                 board: board_status,
                 last_cycle_us,
-            });
-            if step.sentences.iter().next().is_some() {
-                cx.local.tx.send(step.sentences.iter().map(Sentence::as_bytes));
-            }
-            cx.shared.health.lock(|h| h.record(step.status));
+            };
+
+            // What the commands since the last cycle asked for.
+            #[cfg(feature = "serial-commands")]
+            let step = {
+                let (pending, settings, raw) = cx.shared.cmd.lock(|c| {
+                    (core::mem::take(&mut c.pending), *c.device.settings(), c.device.raw_mode())
+                });
+                let pipeline = &mut *cx.local.pipeline;
+                if let Some(rate_changed) = pending.apply {
+                    pipeline.apply_settings(settings);
+                    if rate_changed {
+                        (period, nominal_dt, stats_every, budget) = timing(settings.filter_rate_hz);
+                        cx.local.imu.set_filter_rate(settings.filter_rate_hz);
+                        defmt::println!("filter rate {=u16} Hz", settings.filter_rate_hz);
+                    }
+                }
+                if let Some(yaw) = pending.yaw {
+                    pipeline.ekf_mut().set_yaw(yaw);
+                }
+
+                let sample =
+                    if raw { pipeline.conditioned_sample(&inputs) } else { ImuSample::default() };
+                let step = pipeline.step(&inputs);
+                let tx = &mut *cx.local.tx;
+                cx.shared.cmd.lock(|c| {
+                    let mut out = c.device.on_cycle(&inputs, &sample);
+                    c.record(out.reply.take(), out.action.take());
+                    if raw {
+                        transmit(tx, out.raw_sentences(), &mut c.replies, budget);
+                    } else {
+                        transmit(tx, step.sentences.iter(), &mut c.replies, budget);
+                    }
+                });
+                cx.shared.health.lock(|h| h.record(step.status));
+                // A line the command task missed (it was ending when the line came).
+                if cx.shared.rx.lock(|rx| !rx.lines.is_empty()) {
+                    let _ = command::spawn();
+                }
+                step
+            };
+            #[cfg(not(feature = "serial-commands"))]
+            let step = {
+                let step = cx.local.pipeline.step(&inputs);
+                if step.sentences.iter().next().is_some() {
+                    cx.local.tx.send(step.sentences.iter().map(Sentence::as_bytes));
+                }
+                cx.shared.health.lock(|h| h.record(step.status));
+                step
+            };
 
             last_cycle_us = DWT::cycle_count().wrapping_sub(start) / cycles_per_us;
             max_cycle_us = max_cycle_us.max(last_cycle_us);
             cycle = cycle.wrapping_add(1);
             if cycle % stats_every == 0 {
+                #[cfg(feature = "serial-commands")]
+                {
+                    let (rx_errors, lines_dropped) =
+                        cx.shared.rx.lock(|rx| (rx.errors, rx.lines.dropped));
+                    let replies_dropped = cx.shared.cmd.lock(|c| c.replies.dropped);
+                    defmt::info!(
+                        "commands: rx errors {=u32}, lines dropped {=u32}, replies dropped {=u32}",
+                        rx_errors,
+                        lines_dropped,
+                        replies_dropped
+                    );
+                }
                 defmt::info!(
                     "cycle {=u32}: max {=u32} us, status {=u32:#x}, overruns {=u32}, ADC lost {=u32}, I2C errors {=u32}, tx dropped {=u32}",
                     cycle,
@@ -333,6 +604,19 @@ mod firmware {
                     cx.local.tx.dropped
                 );
                 max_cycle_us = 0;
+            }
+
+            // The watchdog: fed at the end of a healthy cycle only.
+            if step.status.flags().contains(Flags::HEALTH_RESET) {
+                resets_in_row = resets_in_row.saturating_add(1);
+                if resets_in_row == HEALTH_RESET_STORM {
+                    defmt::error!("estimator health resets in a row: watchdog no longer fed");
+                }
+            } else {
+                resets_in_row = 0;
+            }
+            if resets_in_row < HEALTH_RESET_STORM {
+                cx.local.watchdog.feed();
             }
 
             // Next period; after an overrun start again from now rather than catch up.

@@ -7,7 +7,7 @@
 
 use inemo_ahrs::board;
 use stm32f1xx_hal::{
-    flash::FlashExt,
+    flash::{self, FlashExt},
     pac,
     rcc::{Config, Rcc, RccExt},
     time::Hertz,
@@ -116,8 +116,9 @@ fn start_hse(rcc: &pac::RCC) -> bool {
 }
 
 /// Configures the clock tree: 72 MHz from the crystal, or 64 MHz from HSI if it does not
-/// start. Flash wait states are set by the HAL.
-pub fn freeze(rcc: pac::RCC, flash: pac::FLASH) -> (Rcc, ClockSource) {
+/// start. Flash wait states are set by the HAL. Returns the flash controller too (for the
+/// settings pages).
+pub fn freeze(rcc: pac::RCC, flash: pac::FLASH) -> (Rcc, ClockSource, flash::Parts) {
     let mut flash = flash.constrain();
     let source = if start_hse(&rcc) { ClockSource::Hse } else { ClockSource::Hsi };
     let config = match source {
@@ -130,5 +131,6 @@ pub fn freeze(rcc: pac::RCC, flash: pac::FLASH) -> (Rcc, ClockSource) {
     }
     .adcclk(Hertz::from_raw(ADCCLK_HZ));
     // The HSE branch re-enables HSEON and waits for HSERDY, which is already set.
-    (rcc.freeze(config, &mut flash.acr), source)
+    let rcc = rcc.freeze(config, &mut flash.acr);
+    (rcc, source, flash)
 }

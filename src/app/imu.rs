@@ -96,11 +96,8 @@ impl Imu {
     /// The sensor on `bus`, to be read once per cycle at `filter_hz`. Talks to nothing yet.
     pub fn new(bus: Bus, filter_hz: u16) -> Self {
         let filter_hz = filter_hz.max(1);
-        let accel = AccelConfig::new().with_rate(accel_rate(filter_hz));
+        let (accel, divider) = Imu::new_schedule(filter_hz);
         let mag = MagConfig::new();
-        // ceil(filter / mag rate) in quarter hertz (the slowest mag rate is 0.75 Hz).
-        let mag_qhz = ((mag.rate.hz() * 4.0) as u32).max(1);
-        let divider = (u32::from(filter_hz) * 4).div_ceil(mag_qhz).clamp(1, u32::from(u16::MAX));
         Imu {
             dev: Lsm303dlh::new(bus),
             accel,
@@ -109,10 +106,35 @@ impl Imu {
             failed_cycles: 0,
             retry_in: 0,
             retry_interval: filter_hz,
-            mag_divider: divider as u16,
+            mag_divider: divider,
             mag_phase: 0,
             counters: ImuCounters::default(),
         }
+    }
+
+    /// A new filter rate (a command changed it): the accelerometer rate and the magnetometer
+    /// schedule follow it; the sensor is configured again at the next read if its
+    /// accelerometer rate changes.
+    #[cfg(feature = "serial-commands")]
+    pub fn set_filter_rate(&mut self, filter_hz: u16) {
+        let old_rate = self.accel.rate;
+        (self.accel, self.mag_divider) = Imu::new_schedule(filter_hz);
+        self.retry_interval = filter_hz.max(1);
+        self.mag_phase = 0;
+        if self.configured && old_rate != self.accel.rate {
+            self.configured = false;
+            self.retry_in = 0;
+        }
+    }
+
+    /// Accelerometer configuration and magnetometer divider for a filter rate.
+    fn new_schedule(filter_hz: u16) -> (AccelConfig, u16) {
+        let filter_hz = filter_hz.max(1);
+        let accel = AccelConfig::new().with_rate(accel_rate(filter_hz));
+        // ceil(filter / mag rate) in quarter hertz (the slowest mag rate is 0.75 Hz).
+        let mag_qhz = ((MagConfig::new().rate.hz() * 4.0) as u32).max(1);
+        let divider = (u32::from(filter_hz) * 4).div_ceil(mag_qhz).clamp(1, u32::from(u16::MAX));
+        (accel, divider as u16)
     }
 
     /// Whether the last configuration succeeded.

@@ -1,11 +1,21 @@
 //! Board glue used by the RTIC application in `main.rs` (bare-metal targets only): the clock
-//! tree, the ADC scan, USART transmission, the LSM303DLH's read schedule and the status LED.
+//! tree, the ADC scan, USART transmission, the LSM303DLH's read schedule, the status LED, the
+//! command queues and the settings flash (feature `serial-commands`) and the independent
+//! watchdog.
 
 pub mod adc_scan;
 pub mod clocks;
+#[cfg(feature = "serial-commands")]
+pub mod commands;
 pub mod imu;
 pub mod led;
+// Compiled in both variants: RTIC's generated code names the types of the local resources
+// even when their `#[cfg]` is off; without `serial-commands` nothing uses it (the linker drops
+// it).
+#[cfg_attr(not(feature = "serial-commands"), allow(dead_code))]
+pub mod settings_flash;
 pub mod uart_tx;
+pub mod watchdog;
 
 use inemo_ahrs::adc::Averager;
 

@@ -4,13 +4,19 @@
 //! type; a sentence batch is shorter than the buffer, so this drives the channel directly
 //! through the HAL's public channel API with one static buffer: [`DmaTx::send`] copies the
 //! batch in only when the previous transfer is over, otherwise drops the batch and counts it.
+//! [`DmaTx::begin`] gives a [`Batch`] to fill part by part (the cycle's sentences, then
+//! command replies while they fit).
 
 use core::sync::atomic::{compiler_fence, Ordering};
 
 use inemo_ahrs::nmea::MAX_SENTENCE_LEN;
 use stm32f1xx_hal::serial::TxDma2;
 
+/// Buffer for one batch: the two sentences of a cycle at their longest and one command reply.
+#[cfg(feature = "serial-commands")]
+pub const TX_BUF_LEN: usize = 3 * MAX_SENTENCE_LEN;
 /// Buffer for one batch: the two sentences of a cycle at their longest.
+#[cfg(not(feature = "serial-commands"))]
 pub const TX_BUF_LEN: usize = 2 * MAX_SENTENCE_LEN;
 
 /// The transmitter and its counters.
@@ -56,30 +62,77 @@ impl DmaTx {
     /// if the previous transfer is still running. Parts that do not fit the buffer are
     /// dropped too. Returns whether the batch was started.
     pub fn send<'a>(&mut self, parts: impl IntoIterator<Item = &'a [u8]>) -> bool {
-        if self.busy() {
+        let Some(mut batch) = self.begin() else {
             let n = parts.into_iter().count() as u32;
             self.dropped = self.dropped.saturating_add(n);
             return false;
+        };
+        for part in parts {
+            if !batch.push(part) {
+                batch.count_dropped();
+            }
+        }
+        batch.start()
+    }
+
+    /// A new batch to fill, or `None` while the previous transfer is still running.
+    pub fn begin(&mut self) -> Option<Batch<'_>> {
+        if self.busy() {
+            return None;
         }
         // Channel disabled and its flags cleared: from here the DMA does not touch the buffer.
         self.dma.channel.stop();
         compiler_fence(Ordering::SeqCst);
-        let mut len = 0;
-        for part in parts {
-            match self.buf.get_mut(len..len + part.len()) {
-                Some(dst) => {
-                    dst.copy_from_slice(part);
-                    len += part.len();
-                }
-                None => self.dropped = self.dropped.saturating_add(1),
+        Some(Batch { tx: self, len: 0 })
+    }
+}
+
+/// A batch being copied into the buffer; [`Batch::start`] sends it.
+pub struct Batch<'t> {
+    tx: &'t mut DmaTx,
+    len: usize,
+}
+
+impl Batch<'_> {
+    /// Bytes in the batch so far.
+    #[cfg(feature = "serial-commands")]
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// True when nothing was added.
+    #[cfg(feature = "serial-commands")]
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// Appends `part` if it fits the buffer (else leaves the batch as it is: false).
+    pub fn push(&mut self, part: &[u8]) -> bool {
+        match self.tx.buf.get_mut(self.len..self.len + part.len()) {
+            Some(dst) => {
+                dst.copy_from_slice(part);
+                self.len += part.len();
+                true
             }
+            None => false,
         }
+    }
+
+    /// Counts a part that was not added.
+    pub fn count_dropped(&mut self) {
+        self.tx.dropped = self.tx.dropped.saturating_add(1);
+    }
+
+    /// Starts the transfer (nothing when the batch is empty). Returns whether it started.
+    pub fn start(self) -> bool {
+        let len = self.len;
+        let tx = self.tx;
         if len == 0 {
             return false;
         }
-        let ch = &mut self.dma.channel;
-        ch.set_peripheral_address(self.dr, false);
-        ch.set_memory_address(self.buf.as_ptr() as u32, true);
+        let ch = &mut tx.dma.channel;
+        ch.set_peripheral_address(tx.dr, false);
+        ch.set_memory_address(tx.buf.as_ptr() as u32, true);
         ch.set_transfer_length(len);
         compiler_fence(Ordering::Release);
         ch.ch().cr().modify(|_, w| {
@@ -91,7 +144,7 @@ impl DmaTx {
             w.dir().set_bit()
         });
         ch.start();
-        self.started = true;
+        tx.started = true;
         true
     }
 }

@@ -1,0 +1,343 @@
+//! The device emulator: the firmware library (`Pipeline`, `command::Device`, `LineAssembler`,
+//! the NMEA writers) run on the host behind a pseudo-terminal, fed by the `host-tests`
+//! simulator. QEMU cannot emulate the STM32F103's ADC, I²C and USART as the board wires them,
+//! so this is the emulation: the same library code the firmware runs, with the simulated
+//! sensor readings turned back into what the hardware tasks deliver (averaged ADC counts,
+//! LSM303DLH readings in g), as `ekf-emu` does.
+
+use std::{
+    fs::File,
+    io::{self, Read, Write},
+    os::fd::{FromRawFd, OwnedFd},
+    path::{Path, PathBuf},
+    thread,
+    time::{Duration, Instant},
+};
+
+use ekf_core::{AttitudeFilter, Vec3, GRAVITY};
+use host_tests::sim::{Scenario, SimSample, Simulator};
+use inemo_ahrs::{
+    adc::AdcMean,
+    board,
+    command::{position_by_name, Action, Device, LineAssembler, LineEvent},
+    nmea,
+    persist::{self, SimFlash},
+    pipeline::{Inputs, Pipeline, PipelineSettings},
+};
+
+/// Zero-rate output voltage of the analog gyros, V (as `ekf-emu`).
+const GYRO_ZERO_V: f32 = 1.5;
+
+/// Emulator options.
+#[derive(Clone, Debug)]
+pub struct Options {
+    /// Simulator scenario (`host-tests` names, plus `still`).
+    pub scenario: String,
+    /// Time scale: simulated seconds per real second.
+    pub speed: f64,
+    /// Constant simulated depth, m.
+    pub depth_m: f32,
+    /// Simulator seed.
+    pub seed: u64,
+    /// Put the simulated board into the position named by every `ACAL,<pos>` command seen
+    /// (a cooperative operator), back to the scenario on `ACAL,FIT` / `ACAL,CLEAR`.
+    pub follow_acal: bool,
+}
+
+/// A pseudo-terminal: the master side (ours) and the slave's path (the tool's).
+pub struct Pty {
+    /// Master side, non-blocking.
+    pub master: File,
+    /// Kept open so that the master never sees a hang-up between clients.
+    _slave: OwnedFd,
+    /// Path of the slave side.
+    pub path: PathBuf,
+}
+
+/// Open a pseudo-terminal in raw mode (no echo, no line-end translation).
+pub fn open_pty() -> io::Result<Pty> {
+    let (mut m, mut s) = (-1, -1);
+    // SAFETY: openpty writes two descriptors; the name, termios and winsize are optional.
+    let r = unsafe {
+        libc::openpty(&mut m, &mut s, std::ptr::null_mut(), std::ptr::null(), std::ptr::null())
+    };
+    if r != 0 {
+        return Err(io::Error::last_os_error());
+    }
+    // SAFETY: both descriptors were just opened and are owned here only.
+    let (master, slave) = unsafe { (OwnedFd::from_raw_fd(m), OwnedFd::from_raw_fd(s)) };
+    let mut name = [0 as libc::c_char; 256];
+    // SAFETY: the buffer is valid for its length; termios is plain data.
+    unsafe {
+        if libc::ttyname_r(s, name.as_mut_ptr(), name.len()) != 0 {
+            return Err(io::Error::last_os_error());
+        }
+        let mut t: libc::termios = std::mem::zeroed();
+        if libc::tcgetattr(s, &mut t) == 0 {
+            libc::cfmakeraw(&mut t);
+            libc::tcsetattr(s, libc::TCSANOW, &t);
+        }
+        let fl = libc::fcntl(m, libc::F_GETFL);
+        libc::fcntl(m, libc::F_SETFL, fl | libc::O_NONBLOCK);
+    }
+    // SAFETY: ttyname_r wrote a NUL-terminated string.
+    let path = unsafe { std::ffi::CStr::from_ptr(name.as_ptr()) }.to_string_lossy().into_owned();
+    Ok(Pty { master: File::from(master), _slave: slave, path: PathBuf::from(path) })
+}
+
+/// Open an existing device or pty path for the emulator, non-blocking.
+pub fn open_path(path: &Path) -> io::Result<File> {
+    use std::os::unix::fs::OpenOptionsExt;
+    std::fs::OpenOptions::new()
+        .read(true)
+        .write(true)
+        .custom_flags(libc::O_NONBLOCK | libc::O_NOCTTY)
+        .open(path)
+}
+
+/// The simulated board: the simulator and the hardware model.
+struct Board {
+    scenario: Scenario,
+    seed: u64,
+    rate_hz: f64,
+    sim: Simulator,
+    depth_m: f32,
+    /// Forced raw accelerometer direction (g, sensor axes) while a calibration position is held.
+    pose: Option<Vec3>,
+}
+
+fn scenario_by_name(name: &str) -> Option<Scenario> {
+    match name {
+        "still" => Some(Scenario::StillHour),
+        other => Scenario::from_name(other),
+    }
+}
+
+impl Board {
+    fn new(scenario: Scenario, seed: u64, rate_hz: f64, depth_m: f32) -> Self {
+        let sim = Self::sim(scenario, seed, rate_hz);
+        Board { scenario, seed, rate_hz, sim, depth_m, pose: None }
+    }
+
+    fn sim(scenario: Scenario, seed: u64, rate_hz: f64) -> Simulator {
+        scenario.simulator(rate_hz, Some(1e7), seed, false).0
+    }
+
+    fn set_rate(&mut self, rate_hz: f64) {
+        self.rate_hz = rate_hz;
+        self.sim = Self::sim(self.scenario, self.seed, rate_hz);
+    }
+
+    fn next_sample(&mut self) -> SimSample {
+        match self.sim.next() {
+            Some(s) => s,
+            None => {
+                self.sim = Self::sim(self.scenario, self.seed, self.rate_hz);
+                self.sim.next().expect("simulator produces samples")
+            }
+        }
+    }
+
+    /// One filter cycle's hardware input: the inverse of the firmware's conversions with the
+    /// board's physical constants (default settings) and axis maps.
+    fn inputs(&mut self) -> Inputs {
+        let s = PipelineSettings::default();
+        let sample = self.next_sample();
+        let row = sample.row;
+        let counts = |volts: f32| volts / s.adc.vref_v * s.adc.full_scale_counts;
+        let mut gyro = Vec3::from_array(row.gyro);
+        let accel_g = match self.pose {
+            Some(p) => {
+                // Held still in a position: no rotation, gravity along the sensor axis.
+                gyro -= Vec3::new(
+                    sample.omega[0] as f32,
+                    sample.omega[1] as f32,
+                    sample.omega[2] as f32,
+                );
+                let noise = Vec3::new(
+                    (f64::from(row.accel[0]) - sample.accel_clean[0]) as f32,
+                    (f64::from(row.accel[1]) - sample.accel_clean[1]) as f32,
+                    (f64::from(row.accel[2]) - sample.accel_clean[2]) as f32,
+                ) * (1.0 / GRAVITY);
+                p + noise
+            }
+            None => {
+                board::ACCEL_AXES.inverse().apply(Vec3::from_array(row.accel)) * (1.0 / GRAVITY)
+            }
+        };
+        let g = board::GYRO_AXES.inverse().apply(gyro);
+        let sens = s.gyro.sensitivity_v_per_dps;
+        let zero = counts(GYRO_ZERO_V);
+        let d = &s.depth;
+        let p = d.surface_pressure_pa + d.water_density_kg_m3 * d.gravity_m_s2 * self.depth_m;
+        let adc = AdcMean {
+            gyro_x: counts(GYRO_ZERO_V + g.x.to_degrees() * sens[0]),
+            gyro_y: counts(GYRO_ZERO_V + g.y.to_degrees() * sens[1]),
+            gyro_xy_ref: zero,
+            gyro_z: counts(GYRO_ZERO_V + g.z.to_degrees() * sens[2]),
+            gyro_z_ref: zero,
+            depth: counts((p - d.offset_pa) / d.pa_per_volt),
+            samples: 20,
+            ..AdcMean::default()
+        };
+        // LSM303DLH at ±2 g, 1 mg per LSB.
+        let lsb = |x: f32| (x * 1000.0).round().clamp(-2048.0, 2047.0) * 1e-3;
+        Inputs {
+            dt: (1.0 / self.rate_hz) as f32,
+            adc: Some(adc),
+            accel_g: Some([lsb(accel_g.x), lsb(accel_g.y), lsb(accel_g.z)]),
+            mag_ut: None,
+            last_cycle_us: 1200,
+            ..Inputs::default()
+        }
+    }
+}
+
+/// Write what fits; like a UART with nobody listening, the rest is lost.
+fn send(port: &mut File, bytes: &[u8]) {
+    let mut rest = bytes;
+    while !rest.is_empty() {
+        match port.write(rest) {
+            Ok(0) | Err(_) => return,
+            Ok(n) => rest = &rest[n..],
+        }
+    }
+}
+
+/// The emulated firmware: device state, pipeline, flash, the simulated board.
+struct Firmware {
+    device: Device,
+    pipeline: Pipeline,
+    flash: SimFlash,
+    assembler: LineAssembler,
+    board: Board,
+    follow_acal: bool,
+}
+
+impl Firmware {
+    fn act(&mut self, action: Option<Action>) {
+        match action {
+            Some(Action::ApplySettings { filter_rate_changed }) => {
+                self.pipeline.apply_settings(*self.device.settings());
+                if filter_rate_changed {
+                    self.board.set_rate(f64::from(self.device.settings().filter_rate_hz));
+                }
+            }
+            Some(Action::SetYaw(yaw)) => self.pipeline.ekf_mut().set_yaw(yaw),
+            None => {}
+        }
+    }
+
+    /// The test helper `--follow-acal`: move the simulated board as the operator would.
+    fn follow(&mut self, event: &LineEvent) {
+        let LineEvent::Line(line) = event else { return };
+        let Ok(body) = nmea::verify(line.as_bytes()) else { return };
+        let mut f = body.split(',');
+        if !f.next().is_some_and(|a| a.eq_ignore_ascii_case("PINAC"))
+            || !f.next().is_some_and(|v| v.eq_ignore_ascii_case("ACAL"))
+        {
+            return;
+        }
+        match f.next() {
+            Some(p) if p.eq_ignore_ascii_case("FIT") || p.eq_ignore_ascii_case("CLEAR") => {
+                self.board.pose = None
+            }
+            Some(p) => {
+                if let Some(pos) = position_by_name(p) {
+                    self.board.pose = Some(pos.reference_g());
+                }
+            }
+            None => {}
+        }
+    }
+
+    fn receive(&mut self, port: &mut File) -> io::Result<()> {
+        let mut buf = [0u8; 256];
+        loop {
+            let n = match port.read(&mut buf) {
+                Ok(0) => return Ok(()),
+                Ok(n) => n,
+                Err(e) if e.kind() == io::ErrorKind::WouldBlock => return Ok(()),
+                Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
+                // EIO: no slave side open (only with `--port`).
+                Err(e) if e.raw_os_error() == Some(libc::EIO) => return Ok(()),
+                Err(e) => return Err(e),
+            };
+            for &b in &buf[..n] {
+                if let Some(event) = self.assembler.push(b) {
+                    if self.follow_acal {
+                        self.follow(&event);
+                    }
+                    let r = self.device.handle(&event, &mut self.flash);
+                    if let Some(reply) = r.reply {
+                        send(port, reply.as_bytes());
+                    }
+                    self.act(r.action);
+                }
+            }
+        }
+    }
+
+    fn cycle(&mut self, port: &mut File) {
+        let inputs = self.board.inputs();
+        let sample = self.pipeline.conditioned_sample(&inputs);
+        let step = self.pipeline.step(&inputs);
+        let out = self.device.on_cycle(&inputs, &sample);
+        let mut bytes = Vec::with_capacity(256);
+        if let Some(reply) = &out.reply {
+            bytes.extend_from_slice(reply.as_bytes());
+        }
+        if self.device.raw_mode() {
+            for s in out.raw_sentences() {
+                bytes.extend_from_slice(s.as_bytes());
+            }
+        } else {
+            for s in step.sentences.iter() {
+                bytes.extend_from_slice(s.as_bytes());
+            }
+        }
+        send(port, &bytes);
+        self.act(out.action);
+    }
+}
+
+/// Run the emulator on `port` until an I/O error (forever in practice).
+pub fn run(mut port: File, opts: &Options) -> io::Result<()> {
+    let scenario = scenario_by_name(&opts.scenario).ok_or_else(|| {
+        io::Error::new(io::ErrorKind::InvalidInput, format!("unknown scenario {}", opts.scenario))
+    })?;
+    if !(opts.speed > 0.0 && opts.speed.is_finite()) {
+        return Err(io::Error::new(io::ErrorKind::InvalidInput, "speed must be positive"));
+    }
+    let flash = SimFlash::new();
+    let loaded = persist::load(&flash);
+    let device = Device::new(&loaded, "POR");
+    let pipeline = Pipeline::new(*device.settings());
+    let rate = f64::from(device.settings().filter_rate_hz);
+    let mut fw = Firmware {
+        device,
+        pipeline,
+        flash,
+        assembler: LineAssembler::new(),
+        board: Board::new(scenario, opts.seed, rate, opts.depth_m),
+        follow_acal: opts.follow_acal,
+    };
+    let mut start = Instant::now();
+    let mut k: u64 = 0;
+    let mut rate_hz = fw.board.rate_hz;
+    loop {
+        let due = start + Duration::from_secs_f64(k as f64 / rate_hz / opts.speed);
+        let now = Instant::now();
+        if due > now {
+            thread::sleep(due - now);
+        }
+        fw.receive(&mut port)?;
+        fw.cycle(&mut port);
+        k += 1;
+        if fw.board.rate_hz != rate_hz {
+            rate_hz = fw.board.rate_hz;
+            start = Instant::now();
+            k = 0;
+        }
+    }
+}

@@ -1,0 +1,424 @@
+//! `ahrs-tool`: the operator's host tool for the iNEMO AHRS (see `docs/host-tool.md`).
+//!
+//! - `live <port>`: attitude and depth from `$PINAH` / `$PRDID`, one refreshing line;
+//! - `send <port> <COMMAND...>`: one `$PINAC` command, print the `$PINAR` reply;
+//! - `log <port> --out trace.csv`: raw mode into the trace CSV format;
+//! - `calibrate <port>`: interactive six-position accelerometer calibration;
+//! - `emulate --pty`: the firmware library on the host behind a pseudo-terminal.
+
+mod emulate;
+mod link;
+mod raw;
+
+use std::{
+    fs::File,
+    io::{self, BufRead, BufWriter, IsTerminal, Write},
+    path::PathBuf,
+    process::ExitCode,
+    sync::atomic::{AtomicBool, Ordering},
+    time::{Duration, Instant},
+};
+
+use clap::{Parser, Subcommand};
+use host_tests::trace::{TraceColumns, TraceWriter};
+use inemo_ahrs::command::POSITION_NAMES;
+use link::{command_body, Link, Reply};
+
+#[derive(Parser)]
+#[command(name = "ahrs-tool", version, about = "Operator's tool for the iNEMO AHRS")]
+struct Cli {
+    #[command(subcommand)]
+    cmd: Cmd,
+}
+
+#[derive(Subcommand)]
+enum Cmd {
+    /// Show attitude and depth from the board's `$PINAH` / `$PRDID` sentences.
+    Live {
+        /// Serial port (e.g. /dev/ttyUSB0, or the emulator's pty).
+        port: String,
+        /// Stop after this many seconds (default: until interrupted).
+        #[arg(long)]
+        seconds: Option<f64>,
+    },
+    /// Send one command (`VER`, `GET gate.jump`, `SET,gate.jump,0.08`) and print the reply.
+    /// Exit status: 0 OK, 1 ERR reply, 2 no reply or I/O error.
+    Send {
+        /// Serial port.
+        port: String,
+        /// The command: words are joined with commas (`SET,axes.gyro,x,y,-z`, or `-- SET
+        /// axes.gyro x y -z` for words starting with `-` that are not numbers).
+        #[arg(required = true, num_args = 1.., allow_negative_numbers = true)]
+        command: Vec<String>,
+        /// How long to wait for the reply, s.
+        #[arg(long, default_value_t = 2.0)]
+        timeout: f64,
+        /// Also wait for the late reply of `GBIAS` / `ACAL,<position>` (up to this many s).
+        #[arg(long)]
+        wait_late: Option<f64>,
+    },
+    /// Log raw mode (`$PINAW` / `$PINAX`) into a trace CSV (`host-tests replay` reads it).
+    Log {
+        /// Serial port.
+        port: String,
+        /// Output CSV.
+        #[arg(long)]
+        out: PathBuf,
+        /// Stop after this many seconds (default: until Ctrl-C).
+        #[arg(long)]
+        seconds: Option<f64>,
+    },
+    /// Interactive six-position accelerometer calibration (answers read from stdin).
+    Calibrate {
+        /// Serial port.
+        port: String,
+        /// Averaging time per position, s (0.5–60).
+        #[arg(long, default_value_t = 2.0)]
+        seconds: f64,
+    },
+    /// Run the firmware library on the host behind a pseudo-terminal (or a given port),
+    /// fed by the host-tests simulator. Prints the port path on the first line of stdout.
+    Emulate {
+        /// Create a pseudo-terminal and print its path.
+        #[arg(long, conflicts_with = "port", required_unless_present = "port")]
+        pty: bool,
+        /// Use this existing serial device or pty instead.
+        #[arg(long)]
+        port: Option<PathBuf>,
+        /// Simulator scenario: still, pitch-sine, coupled, pitch-step, pitch-ramp, yaw-sine,
+        /// surge, ...
+        #[arg(long, default_value = "still")]
+        scenario: String,
+        /// Time scale: simulated seconds per real second.
+        #[arg(long, default_value_t = 1.0)]
+        speed: f64,
+        /// Simulated depth, m.
+        #[arg(long, default_value_t = 2.5)]
+        depth: f32,
+        /// Simulator seed.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Test helper: hold the simulated board in the position of each `ACAL,<position>`
+        /// command received (back to the scenario on `ACAL,FIT` / `ACAL,CLEAR`).
+        #[arg(long)]
+        follow_acal: bool,
+    },
+}
+
+static INTERRUPTED: AtomicBool = AtomicBool::new(false);
+
+extern "C" fn on_sigint(_: libc::c_int) {
+    INTERRUPTED.store(true, Ordering::SeqCst);
+}
+
+/// Ctrl-C sets [`INTERRUPTED`] instead of killing the process.
+fn catch_ctrl_c() {
+    let handler: extern "C" fn(libc::c_int) = on_sigint;
+    // SAFETY: the handler only stores to an atomic, which is async-signal-safe.
+    unsafe {
+        libc::signal(libc::SIGINT, handler as libc::sighandler_t);
+    }
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.cmd {
+        Cmd::Live { port, seconds } => live(&port, seconds),
+        Cmd::Send { port, command, timeout, wait_late } => {
+            return send(&port, &command, timeout, wait_late);
+        }
+        Cmd::Log { port, out, seconds } => log(&port, &out, seconds),
+        Cmd::Calibrate { port, seconds } => calibrate(&port, seconds),
+        Cmd::Emulate { pty, port, scenario, speed, depth, seed, follow_acal } => {
+            let opts = emulate::Options { scenario, speed, depth_m: depth, seed, follow_acal };
+            emulator(pty, port, &opts)
+        }
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("ahrs-tool: {e}");
+            ExitCode::from(2)
+        }
+    }
+}
+
+fn io_err(e: io::Error) -> String {
+    e.to_string()
+}
+
+fn secs(s: f64) -> Duration {
+    Duration::from_secs_f64(s.clamp(0.0, 1e6))
+}
+
+fn live(port: &str, seconds: Option<f64>) -> Result<(), String> {
+    let mut link = Link::open(port)?;
+    catch_ctrl_c();
+    let end = seconds.map(|s| Instant::now() + secs(s));
+    let tty = io::stdout().is_terminal();
+    let (mut prdid, mut pinah): (Option<Vec<String>>, Option<Vec<String>>) = (None, None);
+    let mut last_seen = Instant::now();
+    while !INTERRUPTED.load(Ordering::SeqCst) && end.is_none_or(|e| Instant::now() < e) {
+        let deadline = Instant::now() + Duration::from_millis(200);
+        let Some((body, _)) = link.next_sentence(deadline).map_err(io_err)? else {
+            if last_seen.elapsed() > Duration::from_secs(2) {
+                print!(
+                    "{}no data from {port}{}",
+                    if tty { "\r\x1b[K" } else { "" },
+                    if tty { "" } else { "\n" }
+                );
+                io::stdout().flush().ok();
+                last_seen = Instant::now();
+            }
+            continue;
+        };
+        let f: Vec<String> = body.split(',').map(str::to_string).collect();
+        match f[0].as_str() {
+            "PINAH" => pinah = Some(f),
+            "PRDID" => prdid = Some(f),
+            _ => continue,
+        }
+        last_seen = Instant::now();
+        let text = live_line(prdid.as_deref(), pinah.as_deref());
+        if tty {
+            print!("\r\x1b[K{text}");
+        } else {
+            println!("{text}");
+        }
+        io::stdout().flush().ok();
+    }
+    if tty {
+        println!();
+    }
+    Ok(())
+}
+
+/// One display line from the latest `$PRDID` and `$PINAH` fields.
+fn live_line(prdid: Option<&[String]>, pinah: Option<&[String]>) -> String {
+    let get = |f: Option<&[String]>, i: usize| {
+        f.and_then(|f| f.get(i)).filter(|s| !s.is_empty()).cloned().unwrap_or_else(|| "-".into())
+    };
+    match pinah {
+        // $PINAH,<roll>,<pitch>,<yaw>,<qw>,<qx>,<qy>,<qz>,<depth>,<status>,<cycle>
+        Some(_) => format!(
+            "roll {:>8}  pitch {:>7}  yaw {:>8}  depth {:>6} m  status {}",
+            get(pinah, 1),
+            get(pinah, 2),
+            get(pinah, 3),
+            get(pinah, 8),
+            get(pinah, 9)
+        ),
+        // $PRDID,<pitch>,<roll>,<heading>
+        None => format!(
+            "roll {:>8}  pitch {:>7}  heading {:>8}",
+            get(prdid, 2),
+            get(prdid, 1),
+            get(prdid, 3)
+        ),
+    }
+}
+
+fn send(port: &str, words: &[String], timeout: f64, wait_late: Option<f64>) -> ExitCode {
+    let body = command_body(words);
+    let mut link = match Link::open(port) {
+        Ok(l) => l,
+        Err(e) => {
+            eprintln!("ahrs-tool: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    let reply = match link.command(&body, secs(timeout)) {
+        Ok(Some(r)) => r,
+        Ok(None) => {
+            eprintln!("ahrs-tool: no reply to {body} within {timeout} s");
+            return ExitCode::from(2);
+        }
+        Err(e) => {
+            eprintln!("ahrs-tool: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    println!("{}", reply.line);
+    let mut ok = reply.ok;
+    if let (Some(late), true) = (wait_late, ok && reply.fields.first().is_some_and(|f| f == "RUN"))
+    {
+        let deadline = Instant::now() + secs(late);
+        let verb = reply.verb.clone();
+        match link
+            .wait_reply(&verb, deadline, |r| !r.ok || r.fields.first().is_some_and(|f| f == "DONE"))
+        {
+            Ok(Some(r)) => {
+                println!("{}", r.line);
+                ok = r.ok;
+            }
+            Ok(None) => {
+                eprintln!("ahrs-tool: no late reply within {late} s");
+                return ExitCode::from(2);
+            }
+            Err(e) => {
+                eprintln!("ahrs-tool: {e}");
+                return ExitCode::from(2);
+            }
+        }
+    }
+    if ok {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(1)
+    }
+}
+
+/// Send `body` and require an OK reply (retried once: the line may be lost).
+fn expect_ok(link: &mut Link, body: &str) -> Result<Reply, String> {
+    for _ in 0..2 {
+        match link.command(body, Duration::from_secs(2)).map_err(io_err)? {
+            Some(r) if r.ok => return Ok(r),
+            Some(r) => return Err(format!("{body}: {}", r.line)),
+            None => continue,
+        }
+    }
+    Err(format!("no reply to {body}"))
+}
+
+fn log(port: &str, out: &PathBuf, seconds: Option<f64>) -> Result<(), String> {
+    let mut link = Link::open(port)?;
+    let file = File::create(out).map_err(|e| format!("cannot create {}: {e}", out.display()))?;
+    let cols = TraceColumns { mag: true, depth: true, truth: false };
+    let mut writer = TraceWriter::new(BufWriter::new(file), cols).map_err(io_err)?;
+    writer.comment(&format!("raw mode log from {port} by ahrs-tool")).map_err(io_err)?;
+    catch_ctrl_c();
+    expect_ok(&mut link, "RAW,1")?;
+    let end = seconds.map(|s| Instant::now() + secs(s));
+    let mut joiner = raw::RawJoiner::default();
+    let mut rows = 0u64;
+    let mut result = Ok(());
+    while !INTERRUPTED.load(Ordering::SeqCst) && end.is_none_or(|e| Instant::now() < e) {
+        let deadline = Instant::now() + Duration::from_millis(200);
+        match link.next_sentence(deadline) {
+            Ok(Some((body, _))) => {
+                if let Some(row) = joiner.push(&body) {
+                    writer.row(&row).map_err(io_err)?;
+                    rows += 1;
+                }
+            }
+            Ok(None) => {}
+            Err(e) => {
+                result = Err(io_err(e));
+                break;
+            }
+        }
+    }
+    if let Some(row) = joiner.finish() {
+        writer.row(&row).map_err(io_err)?;
+        rows += 1;
+    }
+    writer.finish().map_err(io_err)?;
+    let off = expect_ok(&mut link, "RAW,0");
+    eprintln!("{rows} rows written to {} ({} raw cycles skipped)", out.display(), joiner.skipped);
+    result.and(off.map(|_| ()))
+}
+
+/// Human description of a calibration position.
+fn describe(pos: &str) -> String {
+    let (axis, dir) = pos.split_at(1);
+    format!("{axis} axis of the LSM303DLH pointing {}", dir.to_ascii_lowercase())
+}
+
+/// Prompt and read one answer line from stdin; `None` at end of input.
+fn ask(stdin: &mut impl BufRead, prompt: &str) -> Option<String> {
+    print!("{prompt}");
+    io::stdout().flush().ok();
+    let mut line = String::new();
+    match stdin.read_line(&mut line) {
+        Ok(0) | Err(_) => None,
+        Ok(_) => {
+            if !io::stdin().is_terminal() {
+                println!();
+            }
+            Some(line.trim().to_string())
+        }
+    }
+}
+
+fn calibrate(port: &str, seconds: f64) -> Result<(), String> {
+    let mut link = Link::open(port)?;
+    let stdin = io::stdin();
+    let mut input = stdin.lock();
+    println!("Six-position accelerometer calibration on {port}.");
+    expect_ok(&mut link, "ACAL,CLEAR")?;
+    for pos in POSITION_NAMES {
+        loop {
+            let prompt = format!(
+                "Position {pos}: {}. Hold it still and press Enter (q to quit): ",
+                describe(pos)
+            );
+            let answer = ask(&mut input, &prompt).ok_or("input ended")?;
+            if answer.eq_ignore_ascii_case("q") {
+                let _ = link.command("ACAL,CLEAR", Duration::from_secs(2));
+                return Err("calibration abandoned (nothing changed)".into());
+            }
+            let run = expect_ok(&mut link, &format!("ACAL,{pos},{seconds}"))?;
+            if run.fields.first().map(String::as_str) != Some("RUN") {
+                return Err(format!("unexpected reply {}", run.line));
+            }
+            let deadline = Instant::now() + secs(seconds + 10.0);
+            let done = link
+                .wait_reply("ACAL", deadline, |r| {
+                    !r.ok || r.fields.first().is_some_and(|f| f == "DONE")
+                })
+                .map_err(io_err)?
+                .ok_or_else(|| format!("no result for {pos}"))?;
+            if done.ok {
+                // OK,ACAL,DONE,<pos>,<ax>,<ay>,<az>,<positions collected>
+                let f = &done.fields;
+                let g = |i: usize| f.get(i).map(String::as_str).unwrap_or("?");
+                println!("  {pos}: mean ({}, {}, {}) g", g(2), g(3), g(4));
+                break;
+            }
+            println!("  {pos} failed: {} — try again", done.fields.first().map_or("?", |s| s));
+        }
+    }
+    let fit =
+        link.wait_reply_after_send("ACAL,FIT").map_err(io_err)?.ok_or("no reply to ACAL,FIT")?;
+    if !fit.ok {
+        return Err(format!("fit failed: {}", fit.line));
+    }
+    let rms = fit.fields.get(1).cloned().unwrap_or_default();
+    println!("Fit done: rms residual {rms} g (accel_cal.* set, not saved).");
+    let answer = ask(&mut input, "Save to flash? [y/N] ").unwrap_or_default();
+    if answer.eq_ignore_ascii_case("y") || answer.eq_ignore_ascii_case("yes") {
+        let saved = expect_ok(&mut link, "SAVE")?;
+        println!("Saved: {}", saved.line);
+    } else {
+        println!("Not saved: the calibration is in use until reset; SAVE keeps it.");
+    }
+    Ok(())
+}
+
+impl Link {
+    /// `ACAL,FIT`: its reply has the verb `ACAL` and first field `FIT`.
+    fn wait_reply_after_send(&mut self, body: &str) -> io::Result<Option<Reply>> {
+        self.send_command(body)?;
+        let deadline = Instant::now() + Duration::from_secs(3);
+        self.wait_reply("ACAL", deadline, |r| !r.ok || r.fields.first().is_some_and(|f| f == "FIT"))
+    }
+}
+
+fn emulator(pty: bool, port: Option<PathBuf>, opts: &emulate::Options) -> Result<(), String> {
+    let (file, _keep) = if pty {
+        let p = emulate::open_pty().map_err(|e| format!("openpty: {e}"))?;
+        println!("{}", p.path.display());
+        (p.master.try_clone().map_err(io_err)?, Some(p))
+    } else {
+        let path = port.ok_or("give --pty or --port")?;
+        let f = emulate::open_path(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+        println!("{}", path.display());
+        (f, None)
+    };
+    io::stdout().flush().ok();
+    eprintln!(
+        "emulating the iNEMO AHRS firmware (scenario {}, speed {}x); Ctrl-C to stop",
+        opts.scenario, opts.speed
+    );
+    emulate::run(file, opts).map_err(io_err)
+}

@@ -1,0 +1,188 @@
+//! End-to-end tests: the tool against the emulated firmware (`ahrs-tool emulate --pty`: the
+//! firmware library on the host behind a pseudo-terminal), at 10× real time.
+
+use std::{
+    io::{BufRead, BufReader, Write},
+    process::{Child, Command, Output, Stdio},
+};
+
+const BIN: &str = env!("CARGO_BIN_EXE_ahrs-tool");
+
+/// A running emulator; killed on drop (also when a test fails).
+struct Emulator {
+    child: Child,
+    port: String,
+}
+
+impl Emulator {
+    fn start(extra: &[&str]) -> Emulator {
+        let mut child = Command::new(BIN)
+            .args(["emulate", "--pty", "--speed", "10"])
+            .args(extra)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("spawn emulator");
+        let mut line = String::new();
+        let stdout = child.stdout.take().expect("stdout");
+        let read = BufReader::new(stdout).read_line(&mut line);
+        let port = line.trim().to_string();
+        let mut emu = Emulator { child, port };
+        if read.is_err() || emu.port.is_empty() {
+            let _ = emu.child.kill();
+            panic!("emulator printed no port");
+        }
+        emu
+    }
+
+    fn tool(&self, args: &[&str]) -> Output {
+        let mut a = vec![args[0], self.port.as_str()];
+        a.extend_from_slice(&args[1..]);
+        Command::new(BIN).args(&a).output().expect("run ahrs-tool")
+    }
+}
+
+impl Drop for Emulator {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+fn stdout(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+#[test]
+fn send_ver_bad_command_and_setting_round_trip() {
+    let emu = Emulator::start(&[]);
+    let ver = emu.tool(&["send", "VER"]);
+    assert_eq!(ver.status.code(), Some(0), "{ver:?}");
+    assert!(stdout(&ver).starts_with("$PINAR,OK,VER,inemo-ahrs,"), "{}", stdout(&ver));
+
+    let bad = emu.tool(&["send", "FLY"]);
+    assert_eq!(bad.status.code(), Some(1));
+    assert_eq!(stdout(&bad).trim(), "$PINAR,ERR,?,unknown-command*30");
+    let range = emu.tool(&["send", "SET", "output.rate", "60"]);
+    assert_eq!(range.status.code(), Some(1));
+    assert!(stdout(&range).contains("ERR,SET,range,1,50"));
+
+    let set = emu.tool(&["send", "SET", "gate.norm_tolerance", "0.08"]);
+    assert_eq!(set.status.code(), Some(0));
+    assert!(stdout(&set).contains("OK,SET,gate.norm_tolerance,0.08*"));
+    let get = emu.tool(&["send", "GET,gate.norm_tolerance"]);
+    assert_eq!(get.status.code(), Some(0));
+    assert!(stdout(&get).contains("OK,GET,gate.norm_tolerance,0.08*"));
+    let yaw = emu.tool(&["send", "YAW", "-30"]);
+    assert!(stdout(&yaw).contains("OK,YAW,-30*"), "{}", stdout(&yaw));
+    // GBIAS with its late reply: the simulated gyro bias, body FRD, deg/s.
+    let gbias = emu.tool(&["send", "GBIAS", "2", "--wait-late", "5"]);
+    assert_eq!(gbias.status.code(), Some(0), "{gbias:?}");
+    let done = stdout(&gbias);
+    let bx: f64 =
+        done.split("DONE,").nth(1).and_then(|f| f.split(',').next()?.parse().ok()).unwrap();
+    assert!((bx - 1.619).abs() < 0.1, "{done}");
+    let status = emu.tool(&["send", "STATUS"]);
+    assert!(stdout(&status).contains(",0003,"), "settings changed flag: {}", stdout(&status));
+}
+
+#[test]
+fn send_times_out_without_a_device() {
+    // A pty nobody answers on: the emulator's, with the emulator stopped.
+    let mut emu = Emulator::start(&[]);
+    let _ = emu.child.kill();
+    let _ = emu.child.wait();
+    let o = emu.tool(&["send", "VER", "--timeout", "0.3"]);
+    assert_eq!(o.status.code(), Some(2));
+}
+
+#[test]
+fn live_shows_attitude_and_depth() {
+    let emu = Emulator::start(&[]);
+    let o = emu.tool(&["live", "--seconds", "1"]);
+    assert!(o.status.success());
+    let text = stdout(&o);
+    let last = text.lines().last().unwrap_or("");
+    assert!(last.contains("roll") && last.contains("depth    2.5 m"), "{text}");
+}
+
+#[test]
+fn log_still_board_into_a_replayable_trace() {
+    let emu = Emulator::start(&[]);
+    let dir = std::env::temp_dir().join(format!("ahrs-tool-log-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let csv = dir.join("trace.csv");
+    let o = emu.tool(&["log", "--out", csv.to_str().unwrap(), "--seconds", "2"]);
+    assert!(o.status.success(), "{o:?}");
+    let (cols, rows) = host_tests::trace::read_trace_file(&csv).expect("trace parses");
+    std::fs::remove_dir_all(&dir).ok();
+    assert!(cols.depth && cols.mag && !cols.truth);
+    // 2 s at 10× and 50 Hz: about 1000 cycles.
+    assert!(rows.len() > 500, "{} rows", rows.len());
+    for w in rows.windows(2) {
+        assert!((w[1].t - w[0].t - 0.02).abs() < 1e-3, "gap at t = {}", w[0].t);
+    }
+    let n = rows.len() as f32;
+    let mean =
+        |f: &dyn Fn(&host_tests::trace::TraceRow) -> f32| rows.iter().map(f).sum::<f32>() / n;
+    let a = [mean(&|r| r.accel[0]), mean(&|r| r.accel[1]), mean(&|r| r.accel[2])];
+    assert!(a[0].abs() < 0.1 && a[1].abs() < 0.1 && (a[2] + 9.81).abs() < 0.1, "{a:?}");
+    // Gyro: the simulated bias (about 1.6, 3.4, 0 °/s), body FRD, rad/s.
+    let g = [mean(&|r| r.gyro[0]), mean(&|r| r.gyro[1]), mean(&|r| r.gyro[2])];
+    assert!((g[0] - 1.619f32.to_radians()).abs() < 0.005, "{g:?}");
+    assert!((g[1] - 3.44f32.to_radians()).abs() < 0.005, "{g:?}");
+    // Depth in every cycle's $PINAX (the last row's may be cut off by the end of the log).
+    let with_depth = rows.iter().filter(|r| r.depth.is_some()).count();
+    assert!(with_depth + 1 >= rows.len(), "{with_depth} of {}", rows.len());
+    assert!(rows.iter().all(|r| r.depth.is_none_or(|d| (d - 2.5).abs() < 0.01) && r.mag.is_none()));
+    // Raw mode was turned off again: the board answers and streams $PINAH.
+    let status = emu.tool(&["send", "STATUS"]);
+    let s = stdout(&status);
+    let flags = s.split(',').nth(6).unwrap_or("");
+    assert_eq!(u16::from_str_radix(flags, 16).unwrap() & 0x4, 0, "raw mode still on: {s}");
+}
+
+#[test]
+fn calibrate_six_positions_from_stdin_and_save() {
+    let emu = Emulator::start(&["--follow-acal"]);
+    let mut child = Command::new(BIN)
+        .args(["calibrate", &emu.port, "--seconds", "1"])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run calibrate");
+    child.stdin.take().unwrap().write_all(b"\n\n\n\n\n\ny\n").unwrap();
+    let o = child.wait_with_output().unwrap();
+    let text = stdout(&o);
+    assert!(o.status.success(), "{text}\n{}", String::from_utf8_lossy(&o.stderr));
+    let rms: f64 = text
+        .split("rms residual ")
+        .nth(1)
+        .and_then(|r| r.split_whitespace().next())
+        .and_then(|r| r.parse().ok())
+        .unwrap_or_else(|| panic!("no residual in {text}"));
+    assert!(rms < 0.005, "{rms}");
+    assert!(text.contains("Saved: $PINAR,OK,SAVE,A,1"), "{text}");
+    let status = stdout(&emu.tool(&["send", "STATUS"]));
+    assert!(status.starts_with("$PINAR,OK,STATUS,A,1,") && status.contains(",3F*"), "{status}");
+    let cal = stdout(&emu.tool(&["send", "GET", "accel_cal.x"]));
+    assert!(cal.contains("OK,GET,accel_cal.x,"), "{cal}");
+}
+
+#[test]
+fn calibrate_quits_on_q_without_changes() {
+    let emu = Emulator::start(&["--follow-acal"]);
+    let mut child = Command::new(BIN)
+        .args(["calibrate", &emu.port])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run calibrate");
+    child.stdin.take().unwrap().write_all(b"q\n").unwrap();
+    let o = child.wait_with_output().unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    let status = stdout(&emu.tool(&["send", "STATUS"]));
+    assert!(status.contains(",00*"), "{status}");
+}
