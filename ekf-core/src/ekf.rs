@@ -28,10 +28,6 @@ const MAX_ATT_VAR: f32 = 10.0;
 /// Largest bias-error variance before the health check resets the covariance, (rad/s)².
 const MAX_BIAS_VAR: f32 = 1.0;
 
-/// Added to the initial bias variance from the window, (rad/s)² ((0.002 °/s)²): what the
-/// window's average cannot know (turn-on drift, the window's own imperfect stillness).
-const BIAS_VAR_FLOOR: f32 = 1.218e-9;
-
 /// Cycles between full covariance health checks (the Cauchy–Schwarz bounds of every
 /// off-diagonal element: 15 products); once a second at 50 Hz.
 pub const FULL_HEALTH_CHECK_EVERY: u32 = 50;
@@ -336,7 +332,7 @@ impl AttitudeFilter for Ekf {
                     if let Some(v) = var {
                         // The window measured the bias: start with its actual uncertainty.
                         for i in 0..3 {
-                            self.p.m[3 + i][3 + i] = v[i] + BIAS_VAR_FLOOR;
+                            self.p.m[3 + i][3 + i] = v[i];
                         }
                     }
                     // The window's last sample still moves the state (below), so a window

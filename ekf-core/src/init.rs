@@ -24,6 +24,10 @@ pub fn attitude_from_accel(f: Vec3, yaw: f32) -> Quaternion {
     Euler::new(roll, pitch, yaw).to_quaternion()
 }
 
+/// Added to the variance of the window's bias estimate, (rad/s)² ((0.002 °/s)²): what the
+/// window's average cannot know (turn-on drift, the window's own imperfect stillness).
+pub const BIAS_VAR_FLOOR: f32 = 1.218e-9;
+
 /// What the window produced.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum InitStep {
@@ -78,15 +82,17 @@ impl Initializer {
     }
 
     /// Variance of the window's gyro-bias estimate per axis, (rad/s)²: the configured
-    /// per-sample noise at the window's sample rate over the number of samples. `None` when
-    /// the bias is not estimated from the window.
+    /// per-sample noise at the window's sample rate over the number of samples, plus
+    /// [`BIAS_VAR_FLOOR`]. `None` when the bias is not estimated from the window. The filters
+    /// start their bias covariance from it.
     pub fn bias_variance(&self, noise: &crate::settings::NoiseSettings) -> Option<Vec3> {
         if !self.settings.estimate_gyro_bias || self.gyro_n == 0 || !(self.elapsed > 0.0) {
             return None;
         }
         let n = self.gyro_n as f32;
         let rate_hz = n / self.elapsed;
-        Some(noise.gyro_var * (rate_hz / noise.gyro_ref_rate_hz.max(1e-3) / n))
+        let floor = Vec3::new(BIAS_VAR_FLOOR, BIAS_VAR_FLOOR, BIAS_VAR_FLOOR);
+        Some(noise.gyro_var * (rate_hz / noise.gyro_ref_rate_hz.max(1e-3) / n) + floor)
     }
 
     /// Add one sample: `dt` s, the gyro (rad/s) when valid, the accelerometer (any unit, body

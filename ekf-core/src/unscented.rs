@@ -103,11 +103,6 @@ const MAX_Q_VAR: f32 = 1.0;
 /// Largest gyro-bias variance before the health check resets `P`, (rad/s)².
 const MAX_BIAS_VAR: f32 = 1.0;
 
-/// Added to the initial bias variance from the window, (rad/s)² ((0.002 °/s)²): what the
-/// window's average cannot know (turn-on drift, the window's own imperfect stillness). Same
-/// value as the EKF's.
-const BIAS_VAR_FLOOR: f32 = 1.218e-9;
-
 /// The scalar the sigma-point arithmetic runs in (`f32` or `f64`).
 pub(crate) trait Real: RealField + Copy {
     /// From `f32`.
@@ -632,7 +627,7 @@ impl<T: Real, const M: usize> Core<T, M> {
                         // The window measured the bias: start with its actual uncertainty,
                         // as the EKF does.
                         for i in 0..3 {
-                            self.p[(4 + i, 4 + i)] = T::of(v[i] + BIAS_VAR_FLOOR);
+                            self.p[(4 + i, 4 + i)] = T::of(v[i]);
                         }
                     }
                     // The window's last sample still moves the state (below), as in the EKF.
