@@ -18,15 +18,19 @@
 //! Every error is a [`TraceError`] naming the 1-based line number and, where one is at fault,
 //! the column.
 //!
-//! Writing uses shortest round-trip formatting (the `ryu` crate: the same digits as Rust's
-//! `{}`, with an exponent for very small or large values), so an `f32` written and read back
-//! is bit-identical; `t` is kept as `f64`. NaN or infinite values are written as `NaN`/`inf`
-//! (the reader rejects them).
+//! Input traces are written with shortest round-trip formatting (the `ryu` crate: the same
+//! digits as Rust's `{}`, with an exponent for very small or large values), so an `f32`
+//! written and read back is bit-identical; `t` is kept as `f64`. NaN or infinite values are
+//! written as `NaN`/`inf` (the reader rejects them). Estimate files keep `t` shortest round
+//! trip and write the estimate in fixed point (quaternion 8 decimals, Euler angles 5, bias 6:
+//! finer than the `f32` estimate's own precision), exactly rounded with integer arithmetic —
+//! several times faster than shortest round trip; NaN or infinite values there are empty
+//! cells. See [`EstimateWriter`].
 //!
 //! Speed: numbers are parsed with an exact fast path (see `fast_f64`; anything it does not
 //! cover goes to the standard library's parser, so values and errors are those of
-//! `str::parse`), and output is assembled in 64 KiB blocks. `cargo bench -p host-tests --bench
-//! replay_speed` measures both.
+//! `str::parse`), and output is assembled in 64 KiB blocks (estimate lines in a stack buffer
+//! first). `cargo bench -p host-tests --bench replay_speed` measures both.
 
 use std::fmt;
 use std::io::{self, BufRead, Write};
@@ -697,6 +701,133 @@ impl<'a> Line<'a> {
     }
 }
 
+/// `00`, `01`, …, `99`.
+const DIGIT_PAIRS: &[u8; 200] = b"0001020304050607080910111213141516171819\
+    2021222324252627282930313233343536373839\
+    4041424344454647484950515253545556575859\
+    6061626364656667686970717273747576777879\
+    8081828384858687888990919293949596979899";
+
+const POW10_U64: [u64; 10] =
+    [1, 10, 100, 1_000, 10_000, 100_000, 1_000_000, 10_000_000, 100_000_000, 1_000_000_000];
+
+/// Append `v` rounded to `D ≤ 9` decimals, half away from zero, exactly: `v = m·2^e` with an
+/// integer `m < 2^24`, so `v·10^D = m·10^D·2^e` is rounded with integer arithmetic, no
+/// floating-point error. Trailing zeros of the fraction are dropped (`1`, `0.5`, `-0.00012`),
+/// a value that rounds to zero is written `0`, NaN or infinite values are written as nothing
+/// (an empty cell). Returns false, writing nothing, for finite `|v| ≥ 1e9`.
+#[cfg(test)]
+fn fixed_f32<const D: usize>(v: f32, out: &mut Vec<u8>) -> bool {
+    let mut b = [0u8; 24];
+    match fixed_f32_into::<D>(v, &mut b) {
+        Some(n) => {
+            out.extend_from_slice(&b[..n]);
+            true
+        }
+        None => false,
+    }
+}
+
+/// [`fixed_f32`] into the start of `out`: the number of bytes written, `None` for finite
+/// `|v| ≥ 1e9`. At most 1 + 9 + 1 + 9 = 20 bytes.
+#[inline]
+fn fixed_f32_into<const D: usize>(v: f32, out: &mut [u8; 24]) -> Option<usize> {
+    const { assert!(D <= 9) };
+    if !v.is_finite() {
+        return Some(0);
+    }
+    if v.abs() >= 1e9 {
+        return None;
+    }
+    let bits = v.to_bits();
+    let exp_bits = ((bits >> 23) & 0xff) as i32;
+    let frac = u64::from(bits & 0x7f_ffff);
+    // v = m · 2^e
+    let (m, e) = if exp_bits == 0 { (frac, -149) } else { (frac | 1 << 23, exp_bits - 150) };
+    let scaled = m * POW10_U64[D]; // < 2^24 · 10^9 < 2^54
+    let n: u64 = if e >= 0 {
+        // |v| < 1e9 bounds the shift: scaled · 2^e < 1e18.
+        scaled << e
+    } else if e > -64 {
+        let s = -e as u32;
+        (scaled + (1u64 << (s - 1))) >> s
+    } else {
+        0 // < 2^54 / 2^64: rounds to zero
+    };
+    if n == 0 {
+        out[0] = b'0';
+        return Some(1);
+    }
+    Some(write_fixed::<D>(v < 0.0, n, out))
+}
+
+/// `t` (s) with at most 9 decimals, trailing zeros dropped, if that reads back as exactly
+/// `t` (checked with the exact parser [`fast_f64`]); else `None`, writing garbage. For
+/// `|t| < 4e6` s these are then the digits of the shortest round trip (`ryu`'s, without its
+/// `.0` or exponent form), found faster: `f64` spacing there is below 1e-9, so one 9-decimal
+/// number at most reads back as `t`.
+#[inline]
+fn time_fixed(t: f64, out: &mut [u8; 24]) -> Option<usize> {
+    if !t.is_finite() || t.abs() >= 4e9 || t == 0.0 {
+        return None;
+    }
+    let n = (t.abs() * 1e9).round() as u64;
+    if n == 0 {
+        return None;
+    }
+    let k = write_fixed::<9>(t < 0.0, n, out);
+    (fast_f64(&out[..k])?.to_bits() == t.to_bits()).then_some(k)
+}
+
+/// `±n·10^-D` (`n ≠ 0`, `n / 10^D < 2^32`) into the start of `out`, trailing zeros of the
+/// fraction dropped: the number of bytes written (at most 1 + 10 + 1 + 9).
+#[inline]
+fn write_fixed<const D: usize>(neg: bool, n: u64, out: &mut [u8; 24]) -> usize {
+    let mut k = 0;
+    if neg {
+        out[0] = b'-';
+        k = 1;
+    }
+    // `ip < 2^32` (< 1e9 from `fixed_f32_into`), `fp < 10^D ≤ 1e9`.
+    let (mut ip, mut fp) = ((n / POW10_U64[D]) as u32, (n % POW10_U64[D]) as u32);
+    // Integer part: count its digits, then write them right to left, two at a time.
+    let mut len = 1;
+    while len < 10 && u64::from(ip) >= POW10_U64[len] {
+        len += 1;
+    }
+    let mut i = k + len;
+    while ip >= 10 {
+        let d = (ip % 100) as usize * 2;
+        ip /= 100;
+        out[i - 2..i].copy_from_slice(&DIGIT_PAIRS[d..d + 2]);
+        i -= 2;
+    }
+    if i > k {
+        out[k] = b'0' + ip as u8;
+    }
+    k += len;
+    if D > 0 && fp != 0 {
+        // All D digits (a fixed number of steps), then trailing zeros dropped.
+        out[k] = b'.';
+        let mut i = k + 1 + D;
+        for _ in 0..D / 2 {
+            let d = (fp % 100) as usize * 2;
+            fp /= 100;
+            out[i - 2..i].copy_from_slice(&DIGIT_PAIRS[d..d + 2]);
+            i -= 2;
+        }
+        if D % 2 == 1 {
+            out[i - 1] = b'0' + fp as u8;
+        }
+        let mut end = k + 1 + D;
+        while out[end - 1] == b'0' {
+            end -= 1;
+        }
+        k = end;
+    }
+    k
+}
+
 fn itoa_u16(mut v: u16, buf: &mut [u8; 5]) -> &[u8] {
     let mut i = buf.len();
     loop {
@@ -797,31 +928,87 @@ pub struct EstimateRow {
 /// Header of the estimate files this crate writes.
 pub const ESTIMATE_HEADER: &str = "t,qw,qx,qy,qz,roll,pitch,yaw,bias_x,bias_y,bias_z,flags";
 
+/// Decimals of the quaternion components in estimate files (1e-8: below an `f32`'s spacing
+/// near 1, 6e-8).
+pub const Q_DECIMALS: usize = 8;
+/// Decimals of the Euler angles (degrees) in estimate files (1e-5°: an `f32`'s spacing near
+/// 180° is 1.5e-5°).
+pub const EULER_DECIMALS: usize = 5;
+/// Decimals of the gyro bias (°/s) in estimate files.
+pub const BIAS_DECIMALS: usize = 6;
+
 /// Writer of estimate files: `t,qw,qx,qy,qz,roll,pitch,yaw` (Euler in degrees), then
 /// `bias_x,bias_y,bias_z` (°/s) and `flags` (the `ekf_core::Flags` bits as an integer).
+///
+/// `t` is written shortest round trip (the input's value back); the other numbers in fixed
+/// point, [`Q_DECIMALS`], [`EULER_DECIMALS`] and [`BIAS_DECIMALS`] decimals at most, rounded
+/// exactly (half away from zero), trailing zeros dropped; NaN or infinite values are written
+/// as empty cells.
 /// Output is buffered in blocks: end with [`EstimateWriter::finish`].
 pub struct EstimateWriter<W: Write> {
     w: W,
     buf: Vec<u8>,
+    fb: ryu::Buffer,
 }
 
 impl<W: Write> EstimateWriter<W> {
     /// Write the header.
     pub fn new(mut w: W) -> io::Result<Self> {
         writeln!(w, "{ESTIMATE_HEADER}")?;
-        Ok(EstimateWriter { w, buf: Vec::with_capacity(OUT_BLOCK + 512) })
+        Ok(EstimateWriter { w, buf: Vec::with_capacity(OUT_BLOCK + 512), fb: ryu::Buffer::new() })
     }
 
     /// One row.
     pub fn row(&mut self, r: &EstimateRow) -> io::Result<()> {
-        let mut line = Line::new(&mut self.buf);
-        line.f64(r.t);
-        line.f32s(&r.q);
-        line.f32s(&r.euler_deg);
-        line.f32s(&r.bias_dps);
-        line.sep();
-        line.buf.extend_from_slice(itoa_u16(r.flags, &mut [0; 5]));
-        line.finish(&mut self.w)
+        // The line is assembled in a stack buffer (fixed-size writes, no per-number copies)
+        // and appended to the block once: at most 24 + 11 · 25 + 6 bytes.
+        let mut b = [0u8; 384];
+        let mut n = 0;
+        let slot: &mut [u8; 24] = (&mut b[..24]).try_into().unwrap();
+        if let Some(k) = time_fixed(r.t, slot) {
+            n = k;
+        } else if r.t.is_finite() {
+            let s = self.fb.format_finite(r.t).as_bytes();
+            b[..s.len()].copy_from_slice(s);
+            n = s.len();
+        }
+        n = self.fixed_f32s::<Q_DECIMALS>(&r.q, &mut b, n);
+        n = self.fixed_f32s::<EULER_DECIMALS>(&r.euler_deg, &mut b, n);
+        n = self.fixed_f32s::<BIAS_DECIMALS>(&r.bias_dps, &mut b, n);
+        b[n] = b',';
+        n += 1;
+        let mut fbuf = [0; 5];
+        let f = itoa_u16(r.flags, &mut fbuf);
+        b[n..n + f.len()].copy_from_slice(f);
+        n += f.len();
+        b[n] = b'\n';
+        self.buf.extend_from_slice(&b[..n + 1]);
+        if self.buf.len() >= OUT_BLOCK {
+            self.w.write_all(&self.buf)?;
+            self.buf.clear();
+        }
+        Ok(())
+    }
+
+    /// `,` and each of `vs` with `D` decimals at most (see [`fixed_f32`]) into `b` from `n`;
+    /// the new end.
+    #[inline]
+    fn fixed_f32s<const D: usize>(&mut self, vs: &[f32], b: &mut [u8; 384], mut n: usize) -> usize {
+        for &v in vs {
+            b[n] = b',';
+            n += 1;
+            let slot: &mut [u8; 24] = (&mut b[n..n + 24]).try_into().unwrap();
+            match fixed_f32_into::<D>(v, slot) {
+                Some(k) => n += k,
+                None => {
+                    // Outside the fixed formatter's range (|v| ≥ 1e9): shortest round trip.
+                    let s = self.fb.format_finite(v).as_bytes();
+                    slot[..s.len()].copy_from_slice(s);
+                    n += s.len();
+                }
+            }
+        }
+        n
     }
 
     /// Write what is buffered, flush and return the inner writer. Rows are buffered: without
@@ -1085,6 +1272,134 @@ mod tests {
         assert!(fast > 200_000, "the fast path is taken for most inputs ({fast})");
     }
 
+    /// `v` rounded to `d` decimals half away from zero, as a signed integer count of 10^-d,
+    /// from the exact decimal expansion of `v` (the standard library's formatting).
+    fn reference_fixed(v: f32, d: usize) -> i128 {
+        let s = format!("{:.200}", (v as f64).abs());
+        let (ip, fp) = s.split_once('.').unwrap();
+        let digits = format!("{ip}{}", &fp[..d]);
+        let mut n: i128 = digits.parse().unwrap();
+        if fp.as_bytes()[d] >= b'5' {
+            n += 1;
+        }
+        if v < 0.0 {
+            -n
+        } else {
+            n
+        }
+    }
+
+    fn written_fixed(s: &str, d: usize) -> i128 {
+        let (neg, s) = match s.strip_prefix('-') {
+            Some(r) => (true, r),
+            None => (false, s),
+        };
+        let (ip, fp) = s.split_once('.').unwrap_or((s, ""));
+        assert!(!fp.ends_with('0') && fp.len() <= d, "{s:?}");
+        let n: i128 = format!("{ip}{fp:0<d$}").parse().unwrap();
+        assert!(!(neg && n == 0), "negative zero written: {s:?}");
+        if neg {
+            -n
+        } else {
+            n
+        }
+    }
+
+    #[test]
+    fn fixed_point_rounds_exactly_half_away_from_zero() {
+        fn check<const D: usize>(v: f32) {
+            let mut out = Vec::new();
+            assert!(fixed_f32::<D>(v, &mut out));
+            let s = std::str::from_utf8(&out).unwrap();
+            assert_eq!(written_fixed(s, D), reference_fixed(v, D), "{v:e} with {D} decimals");
+        }
+        let fixed = [
+            0.0,
+            -0.0,
+            1.0,
+            -1.0,
+            0.5,
+            -0.5,
+            0.001_953_125, // 2^-9: a tie at 8 decimals
+            -0.001_953_125,
+            0.000_003_814_697_3, // 2^-18
+            1e-9,
+            -1e-9,
+            4e-9,
+            5e-9,
+            179.9,
+            -180.0,
+            1.619,
+            f32::MIN_POSITIVE,
+            1e-45,
+            999_999_900.0,
+            -999_999_900.0,
+            0.999_999_94,
+        ];
+        for v in fixed {
+            check::<8>(v);
+            check::<5>(v);
+            check::<6>(v);
+            check::<0>(v);
+            check::<9>(v);
+        }
+        let mut rng = crate::rng::Rng::new(7, 0);
+        for k in 0..300_000u32 {
+            let bits = rng.next_u64();
+            // Random magnitudes 1e-12..1e9 and random bit patterns within that range.
+            let v = (rng.normal() * 10f64.powi((k % 21) as i32 - 12)) as f32;
+            let r = f32::from_bits(bits as u32);
+            for v in [v, r] {
+                if v.is_finite() && v.abs() < 1e9 {
+                    check::<8>(v);
+                    check::<5>(v);
+                    check::<6>(v);
+                }
+            }
+        }
+        let mut out = Vec::new();
+        assert!(!fixed_f32::<8>(1e9, &mut out) && out.is_empty());
+        assert!(fixed_f32::<8>(f32::NAN, &mut out) && out.is_empty());
+        assert!(fixed_f32::<8>(f32::NEG_INFINITY, &mut out) && out.is_empty());
+        fixed_f32::<8>(0.707_106_77, &mut out);
+        assert_eq!(out, b"0.70710677");
+    }
+
+    #[test]
+    fn time_is_written_shortest_round_trip() {
+        let mut rng = crate::rng::Rng::new(11, 0);
+        let mut fast = 0;
+        let check = |t: f64| -> bool {
+            let mut out = [0u8; 24];
+            let Some(k) = time_fixed(t, &mut out) else { return false };
+            let s = std::str::from_utf8(&out[..k]).unwrap();
+            assert_eq!(s.parse::<f64>().map(f64::to_bits), Ok(t.to_bits()), "{t:e} → {s}");
+            if t.abs() < 4e6 {
+                assert_eq!(s, ryu::Buffer::new().format(t).trim_end_matches(".0"), "{t:e}");
+            }
+            true
+        };
+        for k in 0..200_000u64 {
+            // Sample times as a simulator or a logger writes them, and arbitrary values.
+            let rate = [50.0, 100.0, 104.0, 208.0, 833.0, 1000.0][(k % 6) as usize];
+            for t in [
+                k as f64 / rate,
+                (k * 7919 % 360_000) as f64 * 0.01,
+                rng.uniform() * 3600.0,
+                -(k as f64) * 0.001,
+                f64::from_bits(rng.next_u64()),
+            ] {
+                if check(t) {
+                    fast += 1;
+                }
+            }
+        }
+        assert!(fast > 400_000, "{fast}");
+        for t in [0.0, -0.0, 1e-12, 5e9, f64::NAN, f64::INFINITY] {
+            assert!(time_fixed(t, &mut [0; 24]).is_none(), "{t}");
+        }
+    }
+
     #[test]
     fn estimate_round_trip() {
         let mut w = EstimateWriter::new(Vec::new()).unwrap();
@@ -1100,5 +1415,31 @@ mod tests {
         let mut rd = EstimateReader::new(&bytes[..]).unwrap();
         assert_eq!(rd.next_row().unwrap(), Some(r));
         assert_eq!(rd.next_row().unwrap(), None);
+
+        // Fixed point: the estimate within half a unit of the last decimal; NaN → empty cell.
+        let r = EstimateRow {
+            t: 1234.56,
+            q: [0.707_106_77, -0.000_123_456_79, 0.5, -0.707_106_77],
+            euler_deg: [-179.999_99, 45.123_456, 0.0], // -179.99998474…
+            bias_dps: [f32::NAN; 3],
+            flags: 3,
+        };
+        let mut w = EstimateWriter::new(Vec::new()).unwrap();
+        w.row(&r).unwrap();
+        let bytes = w.finish().unwrap();
+        let text = std::str::from_utf8(&bytes).unwrap();
+        assert_eq!(
+            text.lines().nth(1),
+            Some("1234.56,0.70710677,-0.00012346,0.5,-0.70710677,-179.99998,45.12346,0,,,,3")
+        );
+        let back = EstimateReader::new(&bytes[..]).unwrap().next_row().unwrap().unwrap();
+        assert_eq!((back.t, back.flags), (r.t, r.flags));
+        assert!(back.bias_dps.iter().all(|b| b.is_nan()));
+        for (a, b) in back.q.iter().zip(&r.q) {
+            assert!((a - b).abs() <= 0.5e-8 + 6e-8, "{a} {b}");
+        }
+        for (a, b) in back.euler_deg.iter().zip(&r.euler_deg) {
+            assert!((a - b).abs() <= 0.5e-5 + 1.6e-5, "{a} {b}");
+        }
     }
 }
