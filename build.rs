@@ -6,6 +6,9 @@
 //! `-Tlink.x` in their own build scripts (a second copy redefines the memory regions) and do
 //! not link defmt (no `defmt.x` on their search path). `rustc-link-arg-bins` reaches only this
 //! package's binary; host builds and builds without the `board` feature get nothing.
+//!
+//! The soft-float routines: libgcc's when found (`tools/soft_float.rs`), as `cycle-bench` and
+//! `ekf-emu` link them, so the cycles measured are the cycles flashed.
 use std::{env, path::PathBuf};
 
 fn main() {
@@ -20,5 +23,8 @@ fn main() {
         println!("cargo:rustc-link-search={}", dir.display());
         println!("cargo:rustc-link-arg-bins=-Tlink.x");
         println!("cargo:rustc-link-arg-bins=-Tdefmt.x");
+        link_soft_float();
     }
 }
+
+include!("tools/soft_float.rs");

@@ -104,50 +104,10 @@ fn main() {
         println!("cargo:rustc-link-search={}", root.display());
         println!("cargo:rustc-link-arg-bins=-Tlink.x");
         println!("cargo:rerun-if-changed={}", root.join("memory.x").display());
-        soft_float();
+        link_soft_float();
+    } else {
+        println!("cargo:rustc-env=AHRS_SOFTFLOAT_USED=host");
     }
 }
 
-/// Soft-float routines of the thumbv7m build. `CYCLE_BENCH_SOFTFLOAT=libgcc` links libgcc's
-/// hand-written Thumb-2 soft-float (gcc's `ieee754-sf.S`/`ieee754-df.S`, from Debian's
-/// `gcc-arm-none-eabi`, Cortex-M3 no-FPU multilib) instead of `compiler-builtins`'; unset or
-/// `builtins`: compiler-builtins (the figures of docs/performance.md).
-///
-/// How: `-l static=gcc` from a build script is placed on the link line right after this crate's
-/// objects, before the rlibs and so before `compiler_builtins`, whose intrinsics are weak hidden
-/// symbols anyway: the linker takes libgcc's strong `__aeabi_f*`/`__aeabi_d*` (no duplicate
-/// symbols; `-C link-arg=-lgcc` would not work: it lands after `compiler_builtins`, which then
-/// wins silently). The archive's directory is asked of `arm-none-eabi-gcc` at build time
-/// (`ARM_NONE_EABI_GCC` overrides the command), never hard-coded.
-fn soft_float() {
-    println!("cargo:rerun-if-env-changed=CYCLE_BENCH_SOFTFLOAT");
-    println!("cargo:rerun-if-env-changed=ARM_NONE_EABI_GCC");
-    match env::var("CYCLE_BENCH_SOFTFLOAT").as_deref() {
-        Err(_) | Ok("" | "builtins") => return,
-        Ok("libgcc") => {}
-        Ok(other) => panic!("CYCLE_BENCH_SOFTFLOAT={other}: expected `libgcc` or `builtins`"),
-    }
-    let target = env::var("TARGET").unwrap_or_default();
-    assert!(
-        target == "thumbv7m-none-eabi",
-        "CYCLE_BENCH_SOFTFLOAT=libgcc: only thumbv7m-none-eabi is wired (target {target})"
-    );
-    let gcc = env::var("ARM_NONE_EABI_GCC").unwrap_or_else(|_| "arm-none-eabi-gcc".into());
-    let out = std::process::Command::new(&gcc)
-        .args(["-mcpu=cortex-m3", "-mthumb", "-mfloat-abi=soft", "-print-libgcc-file-name"])
-        .output()
-        .unwrap_or_else(|e| {
-            panic!(
-                "CYCLE_BENCH_SOFTFLOAT=libgcc: cannot run {gcc} ({e}); Debian: gcc-arm-none-eabi"
-            )
-        });
-    let lib = PathBuf::from(String::from_utf8_lossy(&out.stdout).trim());
-    assert!(
-        out.status.success() && lib.is_file(),
-        "CYCLE_BENCH_SOFTFLOAT=libgcc: {gcc} -print-libgcc-file-name gave no libgcc.a ({})",
-        lib.display()
-    );
-    println!("cargo:rerun-if-changed={}", lib.display());
-    println!("cargo:rustc-link-search=native={}", lib.parent().expect("libgcc dir").display());
-    println!("cargo:rustc-link-lib=static=gcc");
-}
+include!("../tools/soft_float.rs");

@@ -32,8 +32,11 @@ fn main() {
         println!("cargo:rustc-link-search={}", root.display());
         println!("cargo:rustc-link-arg-bins=-Tlink.x");
         println!("cargo:rerun-if-changed={}", root.join("memory.x").display());
+        link_soft_float(); // as the firmware (tools/soft_float.rs)
     }
 }
+
+include!("../tools/soft_float.rs");
 
 /// Columns by name (`#` and empty lines skipped); the trace comes from `host-tests simulate`
 /// or `host-tests` logging, which validate it. Errors here name the line.

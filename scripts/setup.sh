@@ -2,7 +2,8 @@
 # One set-up path for the README, CI and developers. Idempotent; quiet when already done.
 #  - host toolchain components (rustfmt, clippy) when rustup manages the toolchain;
 #  - the thumbv7m-none-eabi route (scripts/setup-thumb.sh);
-#  - qemu-system-arm for the emulated runs.
+#  - qemu-system-arm for the emulated runs;
+#  - gcc-arm-none-eabi, for libgcc's soft-float routines (tools/soft_float.rs).
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 
@@ -28,4 +29,13 @@ fi
 if ! command -v qemu-system-arm >/dev/null 2>&1; then
   log "installing qemu-system-arm"
   apt_install qemu-system-arm
+fi
+
+# libgcc's Cortex-M3 soft-float (linked by tools/soft_float.rs; about twice as fast as
+# compiler-builtins' routines): Debian's gcc-arm-none-eabi carries it.
+if [ -z "${AHRS_LIBGCC:-}" ] && [ "${AHRS_SOFTFLOAT:-}" != builtins ] \
+  && ! command -v "${ARM_NONE_EABI_GCC:-arm-none-eabi-gcc}" >/dev/null 2>&1; then
+  log "installing gcc-arm-none-eabi (libgcc's soft-float for the Cortex-M3)"
+  apt_install gcc-arm-none-eabi \
+    || log "could not install gcc-arm-none-eabi: thumb builds fall back to compiler-builtins' soft-float (scripts/cycle-count --check will fail against the libgcc baseline)"
 fi

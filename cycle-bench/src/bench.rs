@@ -48,6 +48,21 @@ static STATE: Global<State> = Global(UnsafeCell::new(State { active: Active::Non
 
 /// Euler output of the last step, rad: roll, pitch, yaw. Written volatile so that the
 /// conversion is part of every step.
+/// The soft-float routines linked (`libgcc` or `compiler-builtins`; tools/soft_float.rs),
+/// NUL-terminated, for the cycle counter's report.
+#[no_mangle]
+pub static AHRS_BENCH_SOFTFLOAT: [u8; SOFTFLOAT.len() + 1] = {
+    let mut b = [0u8; SOFTFLOAT.len() + 1];
+    let s = SOFTFLOAT.as_bytes();
+    let mut i = 0;
+    while i < s.len() {
+        b[i] = s[i];
+        i += 1;
+    }
+    b
+};
+const SOFTFLOAT: &str = env!("AHRS_SOFTFLOAT_USED");
+
 #[no_mangle]
 pub static AHRS_BENCH_EULER: Global<[f32; 3]> = Global(UnsafeCell::new([0.0; 3]));
 

@@ -104,6 +104,7 @@ mod target {
         let init: extern "C" fn() = black_box(bench::ahrs_bench_init);
         let select: extern "C" fn(u32) -> u32 = black_box(bench::ahrs_bench_select);
         let step: extern "C" fn() -> u32 = black_box(bench::ahrs_bench_step);
+        black_box(&bench::AHRS_BENCH_SOFTFLOAT);
         init();
         loop {
             for id in 0..bench::FILTERS.len() as u32 {

@@ -18,14 +18,48 @@ pub struct Cov6 {
     pub m: [[f32; N]; N],
 }
 
-/// Innovation statistics of the two-dimensional tilt measurement.
+/// Process noise densities of the propagation.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ProcessNoise {
+    /// Gyro white-noise density on body x and y (their mean), rad²/s.
+    pub gyro_psd_xy: f32,
+    /// Gyro white-noise density on body z, rad²/s.
+    pub gyro_psd_z: f32,
+    /// Gyro-bias random walk, (rad/s)²/s.
+    pub bias_random_walk: f32,
+}
+
+/// How the yaw-error row (index 2) takes part in the covariance operations.
+///
+/// The accelerometer measures only the tilt errors `(δθ_x, δθ_y)`, and in the propagation
+/// the tilt and bias elements of `P'` depend only on tilt and bias elements of `P` (`Φ`'s
+/// attitude block is the identity). So when nothing corrects yaw — yaw-split on and no
+/// magnetometer — row and column 2 are write-only: skipping them changes no other element, no
+/// estimate and no gate decision, and saves a third of the covariance arithmetic.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum YawRow {
+    /// Tracked and corrected by the tilt update through its correlations (yaw-split off).
+    Free,
+    /// Tracked, but the tilt update gives it zero gain (yaw-split on, magnetometer on: the
+    /// magnetometer's heading update needs the yaw variance and correlations).
+    Frozen,
+    /// Not tracked: row and column 2 keep their values (yaw-split on, no magnetometer).
+    Untracked,
+}
+
+/// Innovation statistics of the two-dimensional tilt measurement, arranged for its update as
+/// two sequential scalar updates (`δθ_x`, then `δθ_y`): the measurement noise is independent
+/// per component, so this is exactly the joint update, in fewer operations.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TiltInnovation {
     /// Innovation (δθ_x, δθ_y), rad.
     pub z: [f32; 2],
-    /// Inverse innovation covariance, rad⁻².
-    pub s_inv: [[f32; 2]; 2],
-    /// Normalised innovation squared `zᵀ S⁻¹ z`.
+    /// Innovation of the second scalar update: `δθ_y` after the `δθ_x` update, rad.
+    pub z2: f32,
+    /// Inverse innovation variances of the two scalar updates, rad⁻².
+    pub s_inv: [f32; 2],
+    /// Normalised innovation squared `zᵀ S⁻¹ z` of the joint measurement (the sum of the two
+    /// scalar ones).
     pub nis: f32,
 }
 
@@ -39,15 +73,37 @@ impl Cov6 {
         Cov6 { m }
     }
 
-    /// Propagate over one step with `Φ = [[I, −A], [0, I]]`, `A = R·dt` (R the body→NED
-    /// rotation), adding process noise: attitude `dt·(a·I + (c − a)·u uᵀ)` with `u` the body
-    /// z axis in NED (gyro noise density `a` rad²/s on body x and y, `c` on body z), and bias
-    /// `qb` (rad/s)² on each axis.
-    pub fn predict(&mut self, a: &Mat3, psd_xy: f32, psd_z: f32, u: Vec3, dt: f32, qb: f32) {
+    /// Propagate over one step of `dt` s with `Φ = [[I, −A], [0, I]]`, `A = R·dt` (R the
+    /// body→NED rotation), adding process noise `q`: attitude `dt·(a·I + (c − a)·u uᵀ)` with `u`
+    /// the body z axis in NED (gyro noise density `a` on body x and y, `c` on body z), and bias
+    /// `dt·qb` on each axis.
+    ///
+    /// With `yaw` = [`YawRow::Untracked`] the yaw-error row and column (index 2) are left as
+    /// they are: no other element depends on them (see [`YawRow`]), so every other element is
+    /// bit-for-bit what the full propagation gives, at two thirds of the cost.
+    pub fn predict(&mut self, a: &Mat3, u: Vec3, dt: f32, q: &ProcessNoise, yaw: YawRow) {
+        let (psd_xy, psd_z, qb) = (q.gyro_psd_xy, q.gyro_psd_z, q.bias_random_walk);
+        match yaw {
+            YawRow::Untracked => self.predict_rows::<2>(a, psd_xy, psd_z, u, dt, qb),
+            YawRow::Free | YawRow::Frozen => self.predict_rows::<3>(a, psd_xy, psd_z, u, dt, qb),
+        }
+    }
+
+    /// [`Cov6::predict`] over the attitude rows `0..NA` (and the bias block).
+    #[inline(always)]
+    fn predict_rows<const NA: usize>(
+        &mut self,
+        a: &Mat3,
+        psd_xy: f32,
+        psd_z: f32,
+        u: Vec3,
+        dt: f32,
+        qb: f32,
+    ) {
         let p = &mut self.m;
         // U = P_ab − A·P_bb  (the new P_ab).
-        let mut new_ab = [[0.0f32; 3]; 3];
-        for i in 0..3 {
+        let mut new_ab = [[0.0f32; 3]; NA];
+        for i in 0..NA {
             for j in 0..3 {
                 let apbb = a[i][0] * p[3][3 + j] + a[i][1] * p[4][3 + j] + a[i][2] * p[5][3 + j];
                 new_ab[i][j] = p[i][3 + j] - apbb;
@@ -57,73 +113,101 @@ impl Cov6 {
         let qd = (psd_z - psd_xy) * dt;
         let qi = psd_xy * dt;
         let uu = [u.x, u.y, u.z];
-        for i in 0..3 {
-            for j in i..3 {
+        let qdu: [f32; NA] = core::array::from_fn(|i| qd * uu[i]);
+        for i in 0..NA {
+            // Diagonal: P_ab,i·a_i + a_i·U_i = (P_ab,i + U_i)·a_i, three multiplications fewer.
+            let v: [f32; 3] = core::array::from_fn(|k| p[i][3 + k] + new_ab[i][k]);
+            let d = p[i][i] - (v[0] * a[i][0] + v[1] * a[i][1] + v[2] * a[i][2]);
+            p[i][i] = d + qdu[i] * uu[i] + qi;
+            for j in i + 1..NA {
                 let pab_at = p[i][3] * a[j][0] + p[i][4] * a[j][1] + p[i][5] * a[j][2];
                 let a_ut = a[i][0] * new_ab[j][0] + a[i][1] * new_ab[j][1] + a[i][2] * new_ab[j][2];
-                let mut v = p[i][j] - pab_at - a_ut + qd * uu[i] * uu[j];
-                if i == j {
-                    v += qi;
-                }
+                let v = p[i][j] - pab_at - a_ut + qdu[i] * uu[j];
                 p[i][j] = v;
                 p[j][i] = v;
             }
         }
-        for i in 0..3 {
+        for (i, row) in new_ab.iter().enumerate() {
             for j in 0..3 {
-                p[i][3 + j] = new_ab[i][j];
-                p[3 + j][i] = new_ab[i][j];
+                p[i][3 + j] = row[j];
+                p[3 + j][i] = row[j];
             }
-            p[3 + i][3 + i] += qb * dt;
+        }
+        let qbd = qb * dt;
+        for i in 3..N {
+            p[i][i] += qbd;
         }
     }
 
     /// Statistics of the tilt innovation `z` (rad) with measurement variance `r` (rad²) per
-    /// component; the measurement matrix selects states 0 and 1.
+    /// component; the measurement matrix selects states 0 and 1. `None` when an innovation
+    /// variance is not positive and finite.
     pub fn tilt_innovation(&self, z: [f32; 2], r: f32) -> Option<TiltInnovation> {
-        let s00 = self.m[0][0] + r;
-        let s01 = self.m[0][1];
-        let s11 = self.m[1][1] + r;
-        let det = s00 * s11 - s01 * s01;
-        if !(det.is_finite() && det > 0.0) {
+        let p = &self.m;
+        let s1 = p[0][0] + r;
+        if !crate::fcmp::in_pos_range(s1, f32::MAX) {
             return None;
         }
-        let inv = 1.0 / det;
-        let s_inv = [[s11 * inv, -s01 * inv], [-s01 * inv, s00 * inv]];
-        let nis = z[0] * (s_inv[0][0] * z[0] + s_inv[0][1] * z[1])
-            + z[1] * (s_inv[1][0] * z[0] + s_inv[1][1] * z[1]);
-        Some(TiltInnovation { z, s_inv, nis })
+        let inv1 = 1.0 / s1;
+        // After the δθ_x update: gain of state 1, its innovation and variance.
+        let g1 = p[1][0] * inv1;
+        let z2 = z[1] - g1 * z[0];
+        let s2 = p[1][1] - g1 * p[0][1] + r;
+        if !crate::fcmp::in_pos_range(s2, f32::MAX) {
+            return None;
+        }
+        let inv2 = 1.0 / s2;
+        let nis = z[0] * z[0] * inv1 + z2 * z2 * inv2;
+        Some(TiltInnovation { z, z2, s_inv: [inv1, inv2], nis })
     }
 
-    /// Kalman update with the tilt measurement; rows with `frozen[i]` get zero gain (their
-    /// state does not move and, Joseph-consistently, their mutual covariance is unchanged).
-    /// Returns the state correction δx.
-    pub fn update_tilt(&mut self, t: &TiltInnovation, frozen: [bool; N]) -> [f32; N] {
-        let p = &mut self.m;
-        // C = P Hᵀ (columns 0, 1); K = C S⁻¹.
-        let mut k = [[0.0f32; 2]; N];
-        let mut c = [[0.0f32; 2]; N];
-        let mut dx = [0.0f32; N];
-        for i in 0..N {
-            c[i] = [p[i][0], p[i][1]];
-            k[i] = [
-                c[i][0] * t.s_inv[0][0] + c[i][1] * t.s_inv[1][0],
-                c[i][0] * t.s_inv[0][1] + c[i][1] * t.s_inv[1][1],
-            ];
-            if !frozen[i] {
-                dx[i] = k[i][0] * t.z[0] + k[i][1] * t.z[1];
-            }
+    /// Kalman update with the tilt measurement (`H` selects states 0 and 1). With
+    /// [`YawRow::Frozen`] the yaw row gets zero gain (yaw does not move and, Joseph-consistently,
+    /// its variance is unchanged); with [`YawRow::Untracked`] row and column 2 are not touched
+    /// at all. Returns the state correction δx.
+    pub fn update_tilt(&mut self, t: &TiltInnovation, yaw: YawRow) -> [f32; N] {
+        const ALL: [bool; N] = [true; N];
+        const NO_YAW: [bool; N] = [true, true, false, true, true, true];
+        match yaw {
+            YawRow::Free => self.update_rows(t, ALL, ALL),
+            YawRow::Frozen => self.update_rows(t, NO_YAW, ALL),
+            YawRow::Untracked => self.update_rows(t, NO_YAW, NO_YAW),
         }
-        // Joseph form with a gain restricted to the free rows reduces to
-        // P'_il = P_il − (K Cᵀ)_il unless both i and l are frozen.
-        for i in 0..N {
-            for l in i..N {
-                if frozen[i] && frozen[l] {
-                    continue;
+    }
+
+    /// [`Cov6::update_tilt`]: rows with `gain[i]` are corrected; elements `(i, l)` with both
+    /// `rows` set and `gain` set for at least one of them are updated. Two scalar updates,
+    /// `H = e₀` with innovation `z₀`, then `H = e₁` with `z2`.
+    #[inline(always)]
+    fn update_rows(&mut self, t: &TiltInnovation, gain: [bool; N], rows: [bool; N]) -> [f32; N] {
+        let mut dx = [0.0f32; N];
+        for (j, z, inv) in [(0, t.z[0], t.s_inv[0]), (1, t.z2, t.s_inv[1])] {
+            let first = j == 0;
+            let p = &mut self.m;
+            // c = P e_j, g = c / s; P' = P − g cᵀ except where both indices are frozen
+            // (Joseph form with the gain restricted to the free rows).
+            let mut c = [0.0f32; N];
+            let mut g = [0.0f32; N];
+            for i in 0..N {
+                if rows[i] {
+                    c[i] = p[i][j];
+                    g[i] = c[i] * inv;
                 }
-                let v = p[i][l] - (k[i][0] * c[l][0] + k[i][1] * c[l][1]);
-                p[i][l] = v;
-                p[l][i] = v;
+            }
+            for i in 0..N {
+                if gain[i] {
+                    dx[i] = if first { g[i] * z } else { dx[i] + g[i] * z };
+                }
+            }
+            for i in 0..N {
+                for l in i..N {
+                    if !(rows[i] && rows[l]) || !(gain[i] || gain[l]) {
+                        continue;
+                    }
+                    let v = p[i][l] - g[i] * c[l];
+                    p[i][l] = v;
+                    p[l][i] = v;
+                }
             }
         }
         dx
@@ -176,10 +260,7 @@ impl Cov6 {
     /// Cheap health check, run every cycle: every diagonal element finite and in
     /// `(0, max_diag[i]]`. (Symmetry holds by construction: every write is mirrored.)
     pub fn diagonal_is_healthy(&self, max_diag: &[f32; N]) -> bool {
-        (0..N).all(|i| {
-            let d = self.m[i][i];
-            d.is_finite() && d > 0.0 && d <= max_diag[i]
-        })
+        (0..N).all(|i| crate::fcmp::in_pos_range(self.m[i][i], max_diag[i]))
     }
 
     /// Full health check: every element finite, diagonal in `(0, max_diag[i]]`, each off-diagonal
@@ -262,6 +343,7 @@ mod tests {
         let dt = 0.02;
         let a: Mat3 = core::array::from_fn(|i| core::array::from_fn(|j| r[i][j] * dt));
         let (psd_xy, psd_z, qb) = (1e-4, 2e-6, 1e-9);
+        let noise = ProcessNoise { gyro_psd_xy: psd_xy, gyro_psd_z: psd_z, bias_random_walk: qb };
         let u = Vec3::new(r[0][2], r[1][2], r[2][2]);
         // Dense Q: R diag(a, a, c) Rᵀ dt.
         let mut qm = [[0.0f32; 6]; 6];
@@ -273,7 +355,17 @@ mod tests {
             qm[3 + i][3 + i] = qb * dt;
         }
         let expect = dense_predict(&p.m, &a, &qm);
-        p.predict(&a, psd_xy, psd_z, u, dt, qb);
+        let p0 = p;
+        p.predict(&a, u, dt, &noise, YawRow::Free);
+        // Untracked yaw: every other element bit for bit the same, row/column 2 untouched.
+        let mut p2 = p0;
+        p2.predict(&a, u, dt, &noise, YawRow::Untracked);
+        for i in 0..6 {
+            for j in 0..6 {
+                let want = if i == 2 || j == 2 { p0.m[i][j] } else { p.m[i][j] };
+                assert_eq!(p2.m[i][j].to_bits(), want.to_bits(), "{i},{j}");
+            }
+        }
         for i in 0..6 {
             for j in 0..6 {
                 assert!((p.m[i][j] - expect[i][j]).abs() < 1e-8, "{i},{j}");
@@ -291,15 +383,38 @@ mod tests {
             let t = p.tilt_innovation(z, r).unwrap();
             let mut frozen = [false; 6];
             frozen[2] = frozen_yaw;
-            let dx = p.update_tilt(&t, frozen);
+            let dx = p.update_tilt(&t, if frozen_yaw { YawRow::Frozen } else { YawRow::Free });
+            if frozen_yaw {
+                // Untracked: the same tilt and bias elements and correction, bit for bit;
+                // row/column 2 untouched.
+                let mut p2 = p0;
+                let dx2 = p2.update_tilt(&t, YawRow::Untracked);
+                assert_eq!(dx, dx2);
+                for i in 0..6 {
+                    for j in 0..6 {
+                        let want = if i == 2 || j == 2 { p0.m[i][j] } else { p.m[i][j] };
+                        assert_eq!(p2.m[i][j].to_bits(), want.to_bits(), "{i},{j}");
+                    }
+                }
+            }
             // Dense Joseph form with the restricted gain.
+            let (s00, s01, s11) = (p0.m[0][0] + r, p0.m[0][1], p0.m[1][1] + r);
+            let det = s00 * s11 - s01 * s01;
+            let s_inv = [[s11 / det, -s01 / det], [-s01 / det, s00 / det]];
+            let nis = z[0] * (s_inv[0][0] * z[0] + s_inv[0][1] * z[1])
+                + z[1] * (s_inv[1][0] * z[0] + s_inv[1][1] * z[1]);
+            assert!((t.nis - nis).abs() < 1e-4 * nis, "{} vs {nis}", t.nis);
             let mut k = [[0.0f32; 2]; 6];
             for i in 0..6 {
                 if !frozen[i] {
                     for c in 0..2 {
-                        k[i][c] = (0..2).map(|m| p0.m[i][m] * t.s_inv[m][c]).sum();
+                        k[i][c] = (0..2).map(|m| p0.m[i][m] * s_inv[m][c]).sum();
                     }
                 }
+            }
+            let dx_joseph: [f32; 6] = core::array::from_fn(|i| k[i][0] * z[0] + k[i][1] * z[1]);
+            for i in 0..6 {
+                assert!((dx[i] - dx_joseph[i]).abs() < 1e-5 * dx_joseph[i].abs() + 1e-9, "dx {i}");
             }
             let mut ikh = [[0.0f32; 6]; 6];
             for i in 0..6 {

@@ -10,8 +10,9 @@
 //! See `docs/filter.md` for the equations and the operation count.
 
 use crate::{
-    covariance::{Cov6, N},
+    covariance::{Cov6, ProcessNoise, YawRow},
     euler::Euler,
+    fcmp,
     filter::AttitudeFilter,
     gate::{AccelGate, PreCheck},
     init::{self, InitStep, Initializer},
@@ -51,6 +52,10 @@ pub struct Ekf {
     last_flags: Flags,
     /// Cycles since start (wrapping), for the periodic full health check.
     cycle: u32,
+    /// Process noise densities, from the settings.
+    noise: ProcessNoise,
+    /// Variance of one tilt measurement component, rad² (`noise.accel_var · accel_var_scale`).
+    accel_var: f32,
 }
 
 impl Ekf {
@@ -69,6 +74,15 @@ impl Ekf {
             external_yaw: 0.0,
             last_flags: Flags::INITIALISING,
             cycle: 0,
+            noise: {
+                let psd = settings.noise.gyro_psd();
+                ProcessNoise {
+                    gyro_psd_xy: 0.5 * (psd.x + psd.y),
+                    gyro_psd_z: psd.z,
+                    bias_random_walk: settings.ekf.bias_random_walk,
+                }
+            },
+            accel_var: settings.noise.accel_var * settings.ekf.accel_var_scale,
         }
     }
 
@@ -111,49 +125,66 @@ impl Ekf {
         self.external_yaw = 0.0;
     }
 
+    /// How the covariance treats the yaw error: untracked when nothing observes it (yaw-split
+    /// on and no magnetometer; see [`YawRow`]).
+    fn yaw_row(&self) -> YawRow {
+        match (self.settings.ekf.yaw_split, self.settings.mag.enabled) {
+            (false, _) => YawRow::Free,
+            (true, true) => YawRow::Frozen,
+            (true, false) => YawRow::Untracked,
+        }
+    }
+
     /// Rotate the attitude about NED z by `angle` rad (a pure yaw change).
     fn rotate_yaw(&mut self, angle: f32) {
         self.q = (Quaternion::from_yaw(angle) * self.q).normalized();
     }
 
-    /// Gyro propagation of the attitude and covariance.
-    fn predict(&mut self, c: &Checked) -> Mat3 {
+    /// Gyro propagation of the attitude and covariance. Returns the predicted rotation and the
+    /// bias-corrected rate (rad/s, body), when the gyro sample is valid.
+    fn predict(&mut self, c: &Checked) -> (Mat3, Option<Vec3>) {
         let s = &self.settings;
-        if let Some(g) = c.gyro {
-            let w = g - self.bias;
+        let rate = c.gyro.map(|g| g - self.bias);
+        if let Some(w) = rate {
             // Exp is a unit quaternion, so the product keeps |q| = 1 to rounding; the one
             // normalisation of the cycle is at its end.
             self.q = self.q * Quaternion::from_rotation_vector(w * c.dt_rate);
-            if s.ekf.yaw_drift_rate != 0.0 {
+            if !fcmp::is_zero(s.ekf.yaw_drift_rate) {
                 let half = -0.5 * s.ekf.yaw_drift_rate * c.dt_rate;
                 self.q = self.q.pre_rotate_z(1.0, half);
             }
         }
         let r = self.q.to_rotation_matrix();
         let dt = c.dt_cov;
-        let a: Mat3 = core::array::from_fn(|i| core::array::from_fn(|j| r[i][j] * dt));
-        let psd = s.noise.gyro_psd();
+        let yaw = self.yaw_row();
+        // A = R·dt; its yaw row only when the yaw error is tracked.
+        let rows = if yaw == YawRow::Untracked { 2 } else { 3 };
+        let mut a: Mat3 = [[0.0; 3]; 3];
+        for (ai, ri) in a.iter_mut().zip(&r).take(rows) {
+            *ai = ri.map(|v| v * dt);
+        }
         let u = Vec3::new(r[0][2], r[1][2], r[2][2]);
-        self.p.predict(&a, 0.5 * (psd.x + psd.y), psd.z, u, dt, s.ekf.bias_random_walk);
-        r
+        self.p.predict(&a, u, dt, &self.noise, yaw);
+        (r, rate)
     }
 
-    /// Accelerometer tilt correction (with gate and yaw-split). `r` is the predicted rotation.
-    fn accel_update(&mut self, dt: f32, a_g: Vec3, norm_g: f32, r: &Mat3) -> Flags {
+    /// Accelerometer tilt correction (with gate and yaw-split). `r` is the predicted rotation;
+    /// `r_is_q` says that `q` has not moved since `r` was computed from it.
+    fn accel_update(&mut self, dt: f32, a_g: Vec3, norm_g: f32, r: &Mat3, r_is_q: bool) -> Flags {
         let bypass = match self.gate.pre_check(dt, a_g, norm_g) {
             PreCheck::Reject(f) => return f,
             PreCheck::Pass { bypass_innovation } => bypass_innovation,
         };
-        // Measured and predicted "down" in the body frame (unit vectors).
-        let d = a_g * (-1.0 / norm_g);
-        let d_hat = Vec3::new(r[2][0], r[2][1], r[2][2]);
-        let res = d - d_hat;
-        // Project onto the body images of NED y and −x: exactly (δθ_x, δθ_y) to first order.
+        // The measured "down" d = −a/|a| minus the predicted one (R's third row), projected
+        // onto the body images of NED y and −x (R's second and first rows): exactly (δθ_x,
+        // δθ_y) to first order. The rows are orthogonal, so the predicted part projects to zero
+        // (to rounding) and is left out.
+        let k = -1.0 / norm_g;
         let z = [
-            r[1][0] * res.x + r[1][1] * res.y + r[1][2] * res.z,
-            -(r[0][0] * res.x + r[0][1] * res.y + r[0][2] * res.z),
+            k * (r[1][0] * a_g.x + r[1][1] * a_g.y + r[1][2] * a_g.z),
+            -k * (r[0][0] * a_g.x + r[0][1] * a_g.y + r[0][2] * a_g.z),
         ];
-        let var = self.settings.noise.accel_var * self.settings.ekf.accel_var_scale;
+        let var = self.accel_var;
         let Some(mut t) = self.p.tilt_innovation(z, var) else {
             return Flags::HEALTH_RESET;
         };
@@ -171,40 +202,50 @@ impl Ekf {
                 None => return Flags::HEALTH_RESET,
             }
         }
-        let mut frozen = [false; N];
-        frozen[2] = self.settings.ekf.yaw_split;
-        let dx = self.p.update_tilt(&t, frozen);
-        let q_pred = self.q;
+        let dx = self.p.update_tilt(&t, self.yaw_row());
+        // Predicted heading (first column of R, up to scale), before the correction moves q.
+        let heading = if r_is_q { (r[0][0], r[1][0]) } else { Self::heading(self.q) };
         // (1, δθ/2) ⊗ q, not normalised: only the direction matters until the cycle's end.
-        self.q = self.q.pre_rotate_small(Vec3::new(dx[0], dx[1], dx[2]));
+        self.q = if fcmp::is_zero(dx[2]) {
+            self.q.pre_rotate_small_xy(dx[0], dx[1]) // always so with yaw-split
+        } else {
+            self.q.pre_rotate_small(Vec3::new(dx[0], dx[1], dx[2]))
+        };
         self.bias += Vec3::new(dx[3], dx[4], dx[5]);
         if self.settings.ekf.yaw_split {
-            self.restore_yaw(q_pred);
+            self.restore_yaw(heading);
         }
         flags |= Flags::ACCEL_USED;
         flags
     }
 
-    /// Yaw-split: rotate about NED z so that the yaw equals that of `q_pred` again. Works on
-    /// quaternions of any norm (homogeneous formulas); the result is normalised at the end of
-    /// the cycle.
-    fn restore_yaw(&mut self, q_pred: Quaternion) {
-        // Heading vectors (cos ψ, sin ψ) up to scale: the first column of R, in homogeneous
-        // form (R₀₀ = w² + x² − y² − z², R₁₀ = 2(xy + wz)).
-        let heading = |q: Quaternion| {
-            (q.w * q.w + q.x * q.x - q.y * q.y - q.z * q.z, 2.0 * (q.x * q.y + q.w * q.z))
-        };
-        let (pc, ps) = heading(q_pred);
-        let (cc, cs) = heading(self.q);
+    /// Heading vector (cos ψ, sin ψ) of `q` up to scale: the first column of R, in homogeneous
+    /// form (R₀₀ = w² + x² − y² − z², R₁₀ = 2(xy + wz)), so for a quaternion of any norm.
+    fn heading(q: Quaternion) -> (f32, f32) {
+        (q.w * q.w + q.x * q.x - q.y * q.y - q.z * q.z, mathf::twice(q.x * q.y + q.w * q.z))
+    }
+
+    /// Yaw-split: rotate about NED z so that the heading is `(pc, ps)` (up to scale: the
+    /// predicted one) again. Works on quaternions of any norm; the result is normalised at the
+    /// end of the cycle.
+    fn restore_yaw(&mut self, (pc, ps): (f32, f32)) {
+        let (cc, cs) = Self::heading(self.q);
         // Rotation from the corrected heading to the predicted one: (cos Δ, sin Δ)·n.
         let c = cc * pc + cs * ps;
         let s = cc * ps - cs * pc;
+        // The usual case, a small Δ (|s| < 2⁻¹⁰·c): (cos Δ/2, sin Δ/2) ∝ (2c, s), whose angle
+        // 2·atan(t/2), t = s/c, is Δ = atan(t) to within |t|³/4 < 2.5e−10 rad — no square root.
+        let (cb, sb) = (c.to_bits(), s.to_bits());
+        if (cb as i32) > 0 && ((sb >> 23) & 0xff) + 11 <= (cb >> 23) {
+            self.q = self.q.pre_rotate_z(mathf::twice(c), s);
+            return;
+        }
         let n = mathf::sqrt(c * c + s * s);
-        if !(n > 1e-12) {
+        if !fcmp::gt(n, 1e-12) {
             return; // ±90° pitch: yaw undefined, nothing to restore.
         }
         // (cos Δ/2, 0, 0, sin Δ/2) ∝ (n + c, 0, 0, s); n + c = 0 only for Δ = π exactly.
-        if n + c > 0.0 {
+        if fcmp::gt(n + c, 0.0) {
             self.q = self.q.pre_rotate_z(n + c, s);
         }
     }
@@ -290,7 +331,8 @@ impl Ekf {
                 flags |= Flags::HEALTH_RESET;
             }
         }
-        if !self.bias.is_finite() || self.bias.max_abs() > self.settings.limits.gyro_range {
+        if !self.bias.is_finite() || fcmp::gt(self.bias.max_abs(), self.settings.limits.gyro_range)
+        {
             self.bias = if bias_before.is_finite() { bias_before } else { Vec3::ZERO };
             flags |= Flags::HEALTH_RESET;
         }
@@ -342,21 +384,20 @@ impl AttitudeFilter for Ekf {
         }
 
         let (q_before, bias_before) = (self.q, self.bias);
-        let r = self.predict(&c);
+        let (r, rate) = self.predict(&c);
 
-        if let Some(block) = self.rest.push(
-            c.dt_rate,
-            c.gyro.map(|g| g - self.bias),
-            accel.map(|(a, _)| a),
-            &self.settings.noise,
-        ) {
+        let rest_block =
+            self.rest.push(c.dt_rate, rate, accel.map(|(a, _)| a), &self.settings.noise);
+        let mut r_is_q = true;
+        if let Some(block) = rest_block {
             flags |= self.rest_block(&block);
+            r_is_q = false; // the yaw hold may have rotated q
         } else if self.rest.at_rest() {
             flags |= Flags::AT_REST;
         }
 
         if let Some((a, n)) = accel {
-            flags |= self.accel_update(c.dt_rate, a, n, &r);
+            flags |= self.accel_update(c.dt_rate, a, n, &r, r_is_q);
         }
         if self.settings.mag.enabled {
             if let Some(m) = sample.mag {
@@ -435,7 +476,7 @@ mod tests {
             let a = a * (1.0 / a.norm());
             let r = f.q.to_rotation_matrix();
             let before = Euler::yaw_of(f.q);
-            let flags = f.accel_update(0.02, a, 1.0, &r);
+            let flags = f.accel_update(0.02, a, 1.0, &r, true);
             prop_assert!(flags.contains(Flags::ACCEL_USED), "{:?}", flags);
             let after = Euler::yaw_of(f.q);
             let moved = mathf::wrap_pi(after - before);

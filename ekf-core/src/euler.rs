@@ -31,12 +31,12 @@ impl Euler {
         let Quaternion { w, x, y, z } = q;
         let (ww, xx, yy, zz) = (w * w, x * x, y * y, z * z);
         let r00 = ww + xx - yy - zz;
-        let r10 = 2.0 * (x * y + w * z);
+        let r10 = mathf::twice(x * y + w * z);
         Euler {
-            roll: mathf::atan2(2.0 * (y * z + w * x), ww - xx - yy + zz),
+            roll: mathf::atan2(mathf::twice(y * z + w * x), ww - xx - yy + zz),
             // asin(2(wy − xz)) written as atan2 with cos θ = |first column of R projected on
             // the horizontal|: identical in exact arithmetic, well conditioned near ±90°.
-            pitch: mathf::atan2(2.0 * (w * y - x * z), mathf::sqrt(r00 * r00 + r10 * r10)),
+            pitch: mathf::atan2(mathf::twice(w * y - x * z), mathf::sqrt(r00 * r00 + r10 * r10)),
             yaw: mathf::atan2(r10, r00),
         }
     }
@@ -58,7 +58,7 @@ impl Euler {
     /// Yaw of an attitude quaternion alone, rad (cheaper than the full conversion; any norm).
     pub fn yaw_of(q: Quaternion) -> f32 {
         let r00 = q.w * q.w + q.x * q.x - q.y * q.y - q.z * q.z;
-        mathf::atan2(2.0 * (q.x * q.y + q.w * q.z), r00)
+        mathf::atan2(mathf::twice(q.x * q.y + q.w * q.z), r00)
     }
 
     /// The angles in degrees `(roll, pitch, yaw)`.

@@ -12,7 +12,7 @@
 //!    `reacquire_s`, the innovation gate is bypassed for samples that pass 1–3, so a filter
 //!    whose tilt has drifted (or was wrong) can reacquire instead of locking itself out.
 
-use crate::{settings::GateSettings, Flags, Vec3};
+use crate::{fcmp, settings::GateSettings, Flags, Vec3};
 
 /// Gate state: previous sample, hold-off and rejection timers.
 #[derive(Clone, Copy, Debug)]
@@ -56,10 +56,19 @@ impl AccelGate {
     /// arriving `dt` s after the previous one.
     pub fn pre_check(&mut self, dt: f32, a_g: Vec3, norm_g: f32) -> PreCheck {
         let j = self.settings.jump_g;
-        let jump = self.prev.map(|p| (a_g - p).norm_sq() > j * j).unwrap_or(false);
+        let jump = self
+            .prev
+            .map(|p| {
+                let d = a_g - p;
+                // |d|² > j² needs some |dᵢ| > j/2 (else |d|² ≤ 3j²/4): skip the squares then.
+                let h = crate::mathf::half(j);
+                !(fcmp::abs_le(d.x, h) && fcmp::abs_le(d.y, h) && fcmp::abs_le(d.z, h))
+                    && fcmp::gt(d.norm_sq(), j * j)
+            })
+            .unwrap_or(false);
         self.prev = Some(a_g);
         let mut why = Flags::NONE;
-        if crate::mathf::abs(norm_g - 1.0) > self.settings.norm_tolerance {
+        if fcmp::gt(crate::mathf::abs(norm_g - 1.0), self.settings.norm_tolerance) {
             why |= Flags::ACCEL_GATED;
         }
         if jump {
@@ -68,12 +77,12 @@ impl AccelGate {
         if why != Flags::NONE {
             return PreCheck::Reject(self.rejected(dt, why));
         }
-        if self.holdoff_left > 0.0 {
+        if fcmp::gt(self.holdoff_left, 0.0) {
             self.holdoff_left -= dt;
             self.rejected_for += dt;
             return PreCheck::Reject(self.long(Flags::ACCEL_KNOCK));
         }
-        PreCheck::Pass { bypass_innovation: self.rejected_for >= self.settings.reacquire_s }
+        PreCheck::Pass { bypass_innovation: fcmp::ge(self.rejected_for, self.settings.reacquire_s) }
     }
 
     /// Innovation check after a `Pass`: `nis` is the normalised innovation squared. Returns
@@ -84,7 +93,7 @@ impl AccelGate {
             self.accepted();
             return Ok(Flags::REACQUIRE);
         }
-        if nis.is_finite() && nis <= self.settings.innovation_chi2 {
+        if nis.is_finite() && fcmp::le(nis, self.settings.innovation_chi2) {
             self.accepted();
             Ok(Flags::NONE)
         } else {

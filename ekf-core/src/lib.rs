@@ -28,6 +28,7 @@ pub mod conditioning;
 pub mod covariance;
 pub mod ekf;
 pub mod euler;
+pub mod fcmp;
 pub mod filter;
 pub mod flags;
 pub mod gate;

@@ -6,12 +6,70 @@
 //! The mean-rate threshold is `rate_threshold + 3·σᵢ/√n` per axis (σᵢ the configured per-sample
 //! noise at the actual rate), so with the defaults a steady 0.5 °/s turn is motion on the
 //! board's z gyro (threshold ≈ 0.22 °/s at 50 Hz) and on its noisier x/y gyros (≈ 0.36 °/s).
+//!
+//! The block sums are kept in fixed point (rates in units of 2⁻²⁰ rad/s, accelerations in
+//! 2⁻²⁴ g, squares in `i64`): integer sums are exact, and on the Cortex-M3 the twelve float
+//! additions and six multiplications per sample they replace cost ~1,200 cycles, the integer
+//! form ~150. The resolution, 1e−6 rad/s and 6e−8 g, is far below every threshold and below the
+//! sensors' noise (docs/performance.md).
 
 use crate::{
     mathf,
     settings::{NoiseSettings, RestSettings},
     Vec3,
 };
+
+/// Fractional bits of the fixed-point rates: 2⁻²⁰ rad/s (≈ 1e−6 rad/s, 5.5e−5 °/s).
+const RATE_FRAC_BITS: i32 = 20;
+/// Fractional bits of the fixed-point accelerations: 2⁻²⁴ g (6e−8 g).
+const ACCEL_FRAC_BITS: i32 = 24;
+/// One rate unit, rad/s.
+const RATE_LSB: f32 = 1.0 / (1u32 << RATE_FRAC_BITS) as f32;
+/// One acceleration unit, g.
+const ACCEL_LSB: f32 = 1.0 / (1u32 << ACCEL_FRAC_BITS) as f32;
+/// Values are clamped to ±2²⁶ units (64 rad/s, 4 g of deviation) before squaring, so a square
+/// is below 2⁵² and a block of up to 2¹¹ samples cannot overflow; the sums saturate anyway.
+const SQUARE_CLAMP: i32 = 1 << 26;
+
+/// `x·2^frac` rounded toward zero, saturated to `i32`, from the float's bits (no soft-float
+/// call); NaN gives 0 (the filters never pass one: `validate` rejects it first).
+fn to_fixed(x: f32, frac: i32) -> i32 {
+    let b = x.to_bits();
+    let e = ((b >> 23) & 0xff) as i32;
+    if e == 0xff {
+        return if b & 0x7f_ffff != 0 {
+            0
+        } else if b >> 31 != 0 {
+            i32::MIN
+        } else {
+            i32::MAX
+        };
+    }
+    // x = m·2^(e − 150) for a normal number (subnormals are far below one unit: 0).
+    let m = ((b & 0x7f_ffff) | 0x80_0000) as i64;
+    let shift = e - 150 + frac;
+    let v = if e == 0 || shift <= -24 {
+        0
+    } else if shift < 0 {
+        m >> -shift
+    } else if shift < 8 {
+        m << shift
+    } else {
+        i64::MAX
+    };
+    let v = v.min(i32::MAX as i64) as i32;
+    if b >> 31 != 0 {
+        -v
+    } else {
+        v
+    }
+}
+
+/// `v²` of `v` clamped to ±`SQUARE_CLAMP`.
+fn square(v: i32) -> i64 {
+    let v = v.clamp(-SQUARE_CLAMP, SQUARE_CLAMP) as i64;
+    v * v
+}
 
 /// One finished block.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -34,12 +92,14 @@ pub struct RestDetector {
     settings: RestSettings,
     n: u32,
     t: f32,
-    g_sum: Vec3,
-    g_sq: Vec3,
-    a_ref: Option<Vec3>,
+    /// Σ rate, Σ rate², in `RATE_LSB` units.
+    g_sum: [i64; 3],
+    g_sq: [i64; 3],
+    /// The block's first acceleration; Σ and Σ² of the deviations from it, `ACCEL_LSB` units.
+    a_ref: Option<[i32; 3]>,
     a_n: u32,
-    a_sum: Vec3,
-    a_sq: Vec3,
+    a_sum: [i64; 3],
+    a_sq: [i64; 3],
     broken: bool,
     still_blocks: u8,
 }
@@ -51,12 +111,12 @@ impl RestDetector {
             settings,
             n: 0,
             t: 0.0,
-            g_sum: Vec3::ZERO,
-            g_sq: Vec3::ZERO,
+            g_sum: [0; 3],
+            g_sq: [0; 3],
             a_ref: None,
             a_n: 0,
-            a_sum: Vec3::ZERO,
-            a_sq: Vec3::ZERO,
+            a_sum: [0; 3],
+            a_sq: [0; 3],
             broken: false,
             still_blocks: 0,
         }
@@ -88,24 +148,29 @@ impl RestDetector {
         self.t += dt;
         match rate {
             Some(w) => {
-                self.g_sum += w;
-                self.g_sq += w.mul_elem(w);
+                for (i, v) in w.to_array().into_iter().enumerate() {
+                    let v = to_fixed(v, RATE_FRAC_BITS);
+                    self.g_sum[i] = self.g_sum[i].saturating_add(v as i64);
+                    self.g_sq[i] = self.g_sq[i].saturating_add(square(v));
+                }
             }
             None => self.broken = true,
         }
         match accel_g {
             Some(a) => {
-                // Shift by the block's first sample so the sums of squares stay well
-                // conditioned in f32.
+                let a = a.to_array().map(|v| to_fixed(v, ACCEL_FRAC_BITS));
+                // Deviations from the block's first sample: small, so their squares are too.
                 let r = *self.a_ref.get_or_insert(a);
-                let d = a - r;
                 self.a_n += 1;
-                self.a_sum += d;
-                self.a_sq += d.mul_elem(d);
+                for i in 0..3 {
+                    let d = a[i].saturating_sub(r[i]);
+                    self.a_sum[i] = self.a_sum[i].saturating_add(d as i64);
+                    self.a_sq[i] = self.a_sq[i].saturating_add(square(d));
+                }
             }
             None => self.broken = true,
         }
-        if self.t < self.settings.block_s {
+        if crate::fcmp::lt(self.t, self.settings.block_s) {
             return None;
         }
         let block = self.finish(noise);
@@ -117,19 +182,22 @@ impl RestDetector {
 
     fn finish(&self, noise: &NoiseSettings) -> RestBlock {
         let n = self.n.max(1) as f32;
-        let mean = self.g_sum * (1.0 / n);
+        let (g_lsb, a_lsb) = (RATE_LSB / n, ACCEL_LSB / n);
+        let mean = Vec3::from_array(self.g_sum.map(|s| s as f32 * g_lsb));
         // Per-sample noise variance at the actual rate (constant density).
         let rate_hz = n / self.t.max(1e-6);
         let var = noise.gyro_var * (rate_hz / noise.gyro_ref_rate_hz.max(1e-3));
         let mean_var = var * (1.0 / n);
         let mut still = !self.broken && self.n >= 4 && self.a_n == self.n;
         for i in 0..3 {
-            let sample_var = (self.g_sq[i] - n * mean[i] * mean[i]) / (n - 1.0).max(1.0);
+            let g_sq = self.g_sq[i] as f32 * (RATE_LSB * RATE_LSB);
+            let sample_var = (g_sq - n * mean[i] * mean[i]) / (n - 1.0).max(1.0);
             let thr = self.settings.rate_threshold + 3.0 * mathf::sqrt(mean_var[i]);
             still &= mathf::abs(mean[i]) <= thr;
             still &= sample_var <= self.settings.gyro_var_factor * var[i];
-            let am = self.a_sum[i] / n;
-            let a_var = (self.a_sq[i] - n * am * am) / (n - 1.0).max(1.0);
+            let am = self.a_sum[i] as f32 * a_lsb;
+            let a_sq = self.a_sq[i] as f32 * (ACCEL_LSB * ACCEL_LSB);
+            let a_var = (a_sq - n * am * am) / (n - 1.0).max(1.0);
             still &= a_var <= self.settings.accel_std_max_g * self.settings.accel_std_max_g;
         }
         RestBlock { still, at_rest: false, mean_rate: mean, mean_var, n: self.n }
@@ -170,6 +238,35 @@ mod tests {
             }
         }
         (blocks, rest)
+    }
+
+    #[test]
+    fn fixed_point_conversion_truncates_exactly() {
+        for (x, frac, want) in [
+            (1.0f32, 20, 1 << 20),
+            (-1.0, 20, -(1 << 20)),
+            (0.0, 20, 0),
+            (-0.0, 24, 0),
+            (1.5e-7, 20, 0),                    // below one unit
+            (3.0 / (1u32 << 20) as f32, 20, 3), // exact
+            (2.9 / (1u32 << 20) as f32, 20, 2), // toward zero
+            (-2.9 / (1u32 << 20) as f32, 20, -2),
+            (1.0e9, 20, i32::MAX),
+            (-1.0e9, 20, -i32::MAX),
+            (f32::INFINITY, 20, i32::MAX),
+            (f32::NAN, 20, 0),
+            (1.0e-40, 24, 0), // subnormal
+        ] {
+            assert_eq!(to_fixed(x, frac), want, "{x} at {frac} bits");
+        }
+        // Against the f64 product on many values.
+        let mut s = 12345u32;
+        for _ in 0..100_000 {
+            s = s.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            let x = f32::from_bits(s & 0x83ff_ffff | 0x3000_0000); // ±[2⁻³¹, 2⁸)
+            let want = (x as f64 * (1u64 << 20) as f64).trunc() as i32;
+            assert_eq!(to_fixed(x, 20), want, "{x}");
+        }
     }
 
     #[test]

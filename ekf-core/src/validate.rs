@@ -1,7 +1,7 @@
 //! Input checks shared by every filter: NaN, ±inf, absurd values and time gaps are caught
 //! here, flagged, and never reach a filter's state.
 
-use crate::{settings::LimitSettings, Flags, ImuSample, Vec3, GRAVITY};
+use crate::{fcmp, settings::LimitSettings, Flags, ImuSample, Vec3, GRAVITY};
 
 /// A sample after the plausibility checks.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -21,19 +21,21 @@ pub struct Checked {
 /// Check one sample against `limits`. Returns `None` when `dt` is unusable (non-finite or
 /// not positive): such a sample must be ignored entirely.
 pub fn check(s: &ImuSample, limits: &LimitSettings) -> Option<Checked> {
-    if !(s.dt.is_finite() && s.dt > 0.0) {
+    // (Comparisons through `fcmp`: exact, and integer instructions on the Cortex-M3.)
+    if !fcmp::in_pos_range(s.dt, f32::MAX) {
         return None;
     }
     let mut flags = Flags::NONE;
     let mut dt_rate = s.dt;
-    if s.dt > limits.max_gap_s {
+    if fcmp::gt(s.dt, limits.max_gap_s) {
         flags |= Flags::TIME_GAP;
         dt_rate = limits.max_gap_s;
     }
-    let dt_cov = s.dt.min(3600.0);
+    let dt_cov = fcmp::min(s.dt, 3600.0);
 
-    let gyro = if s.gyro.is_finite() && s.gyro.max_abs() <= limits.gyro_abs_max {
-        if s.gyro.max_abs() >= limits.gyro_range {
+    let gyro_max = s.gyro.max_abs();
+    let gyro = if s.gyro.is_finite() && fcmp::le(gyro_max, limits.gyro_abs_max) {
+        if fcmp::ge(gyro_max, limits.gyro_range) {
             flags |= Flags::GYRO_SATURATED;
         }
         Some(s.gyro)
@@ -44,7 +46,10 @@ pub fn check(s: &ImuSample, limits: &LimitSettings) -> Option<Checked> {
 
     let a = s.accel * (1.0 / GRAVITY);
     let n = if a.is_finite() { a.norm() } else { f32::NAN };
-    let accel_g = if n.is_finite() && n >= limits.accel_min_g && n <= limits.accel_abs_max_g {
+    let accel_g = if n.is_finite()
+        && fcmp::ge(n, limits.accel_min_g)
+        && fcmp::le(n, limits.accel_abs_max_g)
+    {
         Some((a, n))
     } else {
         flags |= Flags::ACCEL_INVALID;

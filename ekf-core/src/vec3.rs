@@ -64,7 +64,7 @@ impl Vec3 {
     /// Largest absolute component.
     #[inline]
     pub fn max_abs(self) -> f32 {
-        mathf::abs(self.x).max(mathf::abs(self.y)).max(mathf::abs(self.z))
+        crate::fcmp::max_abs3(self.x, self.y, self.z)
     }
     /// Component-wise product.
     #[inline]

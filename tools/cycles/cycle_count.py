@@ -53,7 +53,7 @@ def measure(m: m3model.Machine, name: str, steps: int, attribute: bool,
     not_full = 0
     sites: dict = {}
     callees = {f.addr: m3model.demangle(f.name) for f in m.elf.funcs
-               if m3model.category(m3model.demangle(f.name)) in ("soft-float (compiler-builtins)",
+               if m3model.category(m3model.demangle(f.name)) in ("soft-float",
                                                                  "libm")}
     for _ in range(steps):
         run = m.call("ahrs_bench_step", measure=True)
@@ -179,6 +179,12 @@ def report(res: dict, top: int) -> str:
     return "\n".join(lines)
 
 
+def softfloat(m) -> str:
+    """The soft-float routines the build linked (`AHRS_BENCH_SOFTFLOAT`, NUL-terminated)."""
+    raw = bytes(m.uc.mem_read(m.elf.addr_of("AHRS_BENCH_SOFTFLOAT"), 32))
+    return raw.split(b"\0", 1)[0].decode()
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--elf", default=DEFAULT_ELF)
@@ -194,7 +200,9 @@ def main(argv=None) -> int:
     t0 = time.time()
     m = m3model.Machine(a.elf)
     res = {"elf": os.path.relpath(a.elf, ROOT), "model": "m3model (docs/performance.md)",
-           "filters": {}}
+           "softfloat": softfloat(m), "filters": {}}
+    print(f"cycle-count: soft-float routines linked: {res['softfloat']} (tools/soft_float.rs)",
+          file=sys.stderr)
     lines = m3model.Lines(a.elf)
     for name in a.filters.split(","):
         res["filters"][name] = measure(m, name, STEPS[name], attribute=True,
@@ -228,6 +236,7 @@ def main(argv=None) -> int:
             "comment": "Committed EKF cycle figures (scripts/cycle-count --check fails above "
                        "+5 %). Regenerate with scripts/cycle-count --write-baseline after an "
                        "intended change.",
+            "softfloat": res["softfloat"],
             "ekf_cycles_2ws_mean": round(e["cycles_2ws_mean"]),
             "ekf_cycles_0ws_mean": round(e["cycles_0ws_mean"]),
             "ekf_instructions_mean": round(e["instructions_mean"]),
@@ -243,6 +252,11 @@ def main(argv=None) -> int:
         with open(a.check) as f:
             base = json.load(f)
         e = res["filters"]["ekf"]
+        if base.get("softfloat", res["softfloat"]) != res["softfloat"]:
+            print(f"FAIL: the baseline was measured with {base['softfloat']}'s soft-float, this "
+                  f"build links {res['softfloat']}'s (tools/soft_float.rs; on Debian: apt "
+                  "install gcc-arm-none-eabi, which scripts/setup.sh does)", file=sys.stderr)
+            ok = False
         for key, now in (("ekf_cycles_2ws_mean", e["cycles_2ws_mean"]),
                          ("ekf_cycles_2ws_max", e["cycles_2ws_max"])):
             ref = base[key]

@@ -248,6 +248,12 @@ class Elf:
                 self.segments.append((seg["p_vaddr"], seg["p_paddr"], seg.data(),
                                       seg["p_memsz"]))
             self.sections = {s.name: (s["sh_addr"], s["sh_size"]) for s in elf.iter_sections()}
+            # All code: `.text` and any section placed beside it (memory.x puts libgcc's
+            # soft-float in `.text.softfloat`, before `.text`).
+            ex = [(s["sh_addr"], s["sh_addr"] + s["sh_size"]) for s in elf.iter_sections()
+                  if s["sh_flags"] & 0x4 and s["sh_size"] and s["sh_addr"]]  # SHF_EXECINSTR
+            lo = min(a for a, _ in ex) if ex else FLASH_BASE
+            self.code = (lo, (max(b for _, b in ex) - lo) if ex else 0)
             symtab = elf.get_section_by_name(".symtab")
             syms, objs = {}, {}
             for s in symtab.iter_symbols():
@@ -332,7 +338,7 @@ class Machine:
     def _scan_dynamic(self) -> dict:
         """Addresses of long multiplies and divides in every function (linear sweep)."""
         sites = {}
-        text_addr, text_size = self.elf.sections.get(".text", (FLASH_BASE, 0))
+        text_addr, text_size = self.elf.code
         code = bytes(self.uc.mem_read(text_addr, text_size))
         for f in self.elf.funcs:
             if not (text_addr <= f.addr < text_addr + text_size) or f.size == 0:
@@ -505,7 +511,7 @@ class Machine:
         """Functions statically reachable from `root` through direct branches and calls
         (B, BL, CBZ/CBNZ, conditional B) and through function addresses built with
         MOVW/MOVT or loaded from literal pools that point at a function start."""
-        text_addr, text_size = self.elf.sections[".text"]
+        text_addr, text_size = self.elf.code
         code = bytes(self.uc.mem_read(text_addr, text_size))
         seen, todo = set(), [self.elf.by_name[root]]
         while todo:
@@ -545,7 +551,7 @@ for _n in dir(C):
         _REGMAP[getattr(C, _n)] = getattr(A, "UC_" + _n)
 
 
-SOFT_FLOAT = re.compile(r"^(__aeabi_[fdil]|__aeabi_(ui|ul|i|l)2|__(add|sub|mul|div|neg)[sd]f3|"
+SOFT_FLOAT = re.compile(r"^(__aeabi_[fdil]|__aeabi_c[fd]|__aeabi_(ui|ul|i|l)2|__(add|sub|mul|div|neg)[sd]f3|__cmp[sd]f2|"
                         r"__(eq|ne|lt|le|gt|ge|unord)[sd]f2|__fix|__float|__extend|__trunc|"
                         r"compiler_builtins::float|compiler_builtins::int)")
 LIBM = re.compile(r"^(libm::|(fmax|fmin|sqrt|atan2|atan|asin|acos|sin|cos|floor|ceil|fabs|"
@@ -554,7 +560,7 @@ LIBM = re.compile(r"^(libm::|(fmax|fmin|sqrt|atan2|atan|asin|acos|sin|cos|floor|
 
 def category(name: str) -> str:
     if SOFT_FLOAT.search(name):
-        return "soft-float (compiler-builtins)"
+        return "soft-float"
     if LIBM.search(name):
         return "libm"
     if name.startswith(("__aeabi_mem", "compiler_builtins::mem", "memcpy", "memset")):
