@@ -96,22 +96,38 @@ fn mul_cold(x: f32, by: f32) -> f32 {
     x * by
 }
 
+/// The exponent arithmetic pays on the Cortex-M3 (no FPU); elsewhere a multiplication is one
+/// instruction. Same results either way (tested).
+const POW2_BY_EXPONENT: bool = cfg!(target_arch = "arm");
+
 /// `2·x`, exactly as `2.0 * x` (see `scale_pow2`).
 #[inline(always)]
 pub fn twice(x: f32) -> f32 {
-    scale_pow2::<1>(x, 2.0)
+    if POW2_BY_EXPONENT {
+        scale_pow2::<1>(x, 2.0)
+    } else {
+        2.0 * x
+    }
 }
 
 /// `x / 2`, exactly as `0.5 * x`.
 #[inline(always)]
 pub fn half(x: f32) -> f32 {
-    scale_pow2::<-1>(x, 0.5)
+    if POW2_BY_EXPONENT {
+        scale_pow2::<-1>(x, 0.5)
+    } else {
+        0.5 * x
+    }
 }
 
 /// `x / 4`, exactly as `0.25 * x`.
 #[inline(always)]
 pub fn quarter(x: f32) -> f32 {
-    scale_pow2::<-2>(x, 0.25)
+    if POW2_BY_EXPONENT {
+        scale_pow2::<-2>(x, 0.25)
+    } else {
+        0.25 * x
+    }
 }
 
 /// Wrap an angle to (−π, π], rad. Non-finite input is returned unchanged.
@@ -159,7 +175,11 @@ mod tests {
         let mut s = 0x1234_5678u32;
         let check = |b: u32| {
             let x = f32::from_bits(b);
-            for (got, want) in [(twice(x), 2.0 * x), (half(x), 0.5 * x), (quarter(x), 0.25 * x)] {
+            for (got, want) in [
+                (scale_pow2::<1>(x, 2.0), 2.0 * x),
+                (scale_pow2::<-1>(x, 0.5), 0.5 * x),
+                (scale_pow2::<-2>(x, 0.25), 0.25 * x),
+            ] {
                 assert!(
                     got.to_bits() == want.to_bits() || (got.is_nan() && want.is_nan()),
                     "{b:#x}"
