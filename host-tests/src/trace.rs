@@ -764,8 +764,9 @@ fn plain_decimal(buf: &[u8], s: usize) -> Option<(Decimal, usize)> {
 /// [`scan_decimal`] (the exact fast path), skipped cells only checked to be ASCII (so the line
 /// is valid UTF-8). Returns the row and the line's length, or `None` for anything that is not a
 /// plain, complete data line: a comment or empty line, padding, a number outside the exact
-/// fast path, a missing or extra cell, a partial group, no `\n` (and 16 bytes after the last
-/// number) in `buf`. The slow path then reads the line and gives the same row, or the error.
+/// fast path, a missing or extra cell, a partial group, no `\n` in `buf`. The slow path then
+/// reads the line and gives the same row, or the error. (Near the end of `buf`, where a
+/// 16-byte window does not fit, cells are read by [`scan_decimal`] alone.)
 /// `t` is not checked against the previous row here.
 #[inline]
 fn fast_row(slots: &[u8], buf: &[u8]) -> Option<(TraceRow, usize)> {
