@@ -328,6 +328,28 @@ impl<R: BufRead> CsvReader<R> {
         }
     }
 
+    /// The fast path of the readers built on this one: offer the unread part of the input
+    /// buffer to `parse`, which either recognises one complete, well-formed data line at its
+    /// start (returning its value and the line's length including the `\n`) or declines
+    /// (`None`: a comment, anything unusual or malformed, a line crossing the end of the
+    /// buffer). A recognised line is consumed and counted; after `Ok(None)` nothing is
+    /// consumed and the caller reads the line with [`CsvReader::next_record`], which handles
+    /// every case and reports the errors. No copy, no allocation.
+    pub fn next_fast<T>(
+        &mut self,
+        parse: impl FnOnce(&[u8]) -> Option<(T, usize)>,
+    ) -> Result<Option<T>, TraceError> {
+        let buf = self.reader.fill_buf()?;
+        match parse(buf) {
+            Some((value, len)) => {
+                self.reader.consume(len);
+                self.line += 1;
+                Ok(Some(value))
+            }
+            None => Ok(None),
+        }
+    }
+
     /// Advance to the next data record. `Ok(None)` at the end of the input.
     pub fn next_record(&mut self) -> Result<Option<Record<'_>>, TraceError> {
         if !self.next_content_line()? {
@@ -359,41 +381,75 @@ const POW10: [f64; 23] = [
     1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
 ];
 
-/// Exact fast path of decimal → `f64` (Clinger): `[+-]digits[.digits][(e|E)[+-]digits]` with
-/// at most 19 digits, a mantissa `m ≤ 2⁵³` and a decimal exponent `|e| ≤ 22`, so
-/// that `m` and `10^|e|` are exact in `f64` and one correctly rounded multiplication or
-/// division gives the correctly rounded result. `None` for anything else (the caller then
-/// uses the standard library's parser, which also produces the errors): the result, when
-/// there is one, is always the one `str::parse::<f64>` gives.
-fn fast_f64(b: &[u8]) -> Option<f64> {
+/// A decimal number `±m · 10^e` as written, before conversion.
+#[derive(Clone, Copy, Debug)]
+struct Decimal {
+    neg: bool,
+    m: u64,
+    e: i32,
+}
+
+/// The run of ASCII digits at the start of `b`, at most 8 of them: `(value, length)`
+/// ([`digit_word`], or byte by byte near the end of `b`).
+#[inline(always)]
+fn digit_run8(b: &[u8]) -> (u64, usize) {
+    if let Some(r) = digit_word(b, 0) {
+        r
+    } else {
+        let mut m = 0;
+        let mut k = 0;
+        while k < b.len() && b[k].is_ascii_digit() {
+            m = m * 10 + u64::from(b[k] - b'0');
+            k += 1;
+        }
+        (m, k)
+    }
+}
+
+/// Digits at the start of `b` appended to `m`: the new `m`, the digits read, or `None` past 19
+/// digits in all (`nd` already read), so that `m` cannot overflow.
+#[inline(always)]
+fn digits(b: &[u8], mut m: u64, nd: usize) -> Option<(u64, usize)> {
+    let mut i = 0;
+    loop {
+        let (v, k) = digit_run8(&b[i..]);
+        if nd + i + k > 19 {
+            return None;
+        }
+        m = m * POW10_U64[k] + v;
+        i += k;
+        if k < 8 {
+            return Some((m, i));
+        }
+    }
+}
+
+/// Scan `[+-]digits[.digits][(e|E)[+-]digits]` (at least one digit, at most 19 in all, an
+/// exponent below 10000) at the start of `b`: the number and the bytes it spans. `None` if
+/// there is no such number; what follows it is the caller's business.
+#[inline(always)]
+fn scan_decimal(b: &[u8]) -> Option<(Decimal, usize)> {
     let (neg, mut i) = match b.first()? {
         b'-' => (true, 1),
         b'+' => (false, 1),
         _ => (false, 0),
     };
-    // At most 19 digits in all (leading zeros included), so `m` cannot overflow.
-    let mut m: u64 = 0;
-    let int_start = i;
-    while i < b.len() && b[i].is_ascii_digit() {
-        m = m.wrapping_mul(10).wrapping_add(u64::from(b[i] - b'0'));
+    let (mut m, int_digits) = digits(&b[i..], 0, 0)?;
+    i += int_digits;
+    let mut nd = int_digits;
+    let mut e: i32 = 0;
+    if b.get(i) == Some(&b'.') {
         i += 1;
+        let (m2, frac_digits) = digits(&b[i..], m, nd)?;
+        m = m2;
+        i += frac_digits;
+        nd += frac_digits;
+        e = -(frac_digits as i32);
     }
-    let mut nd = i - int_start;
-    let mut exp: i32 = 0;
-    if i < b.len() && b[i] == b'.' {
-        i += 1;
-        let frac_start = i;
-        while i < b.len() && b[i].is_ascii_digit() {
-            m = m.wrapping_mul(10).wrapping_add(u64::from(b[i] - b'0'));
-            i += 1;
-        }
-        exp = -((i - frac_start) as i32);
-        nd += i - frac_start;
-    }
-    if nd == 0 || nd > 19 {
+    if nd == 0 {
         return None;
     }
-    if i < b.len() && (b[i] == b'e' || b[i] == b'E') {
+    if let Some(b'e' | b'E') = b.get(i) {
         i += 1;
         let eneg = match b.get(i) {
             Some(b'-') => {
@@ -407,39 +463,78 @@ fn fast_f64(b: &[u8]) -> Option<f64> {
             _ => false,
         };
         let start = i;
-        let mut e: i32 = 0;
-        while i < b.len() && b[i].is_ascii_digit() {
-            if e > 1000 {
-                return None;
+        let mut x: i32 = 0;
+        while let Some(&c) = b.get(i) {
+            if !c.is_ascii_digit() || i - start == 4 {
+                break;
             }
-            e = e * 10 + i32::from(b[i] - b'0');
+            x = x * 10 + i32::from(c - b'0');
             i += 1;
         }
-        if i == start {
+        if i == start || b.get(i).is_some_and(u8::is_ascii_digit) {
             return None;
         }
-        exp += if eneg { -e } else { e };
+        e += if eneg { -x } else { x };
     }
-    if i != b.len() || m > 1 << 53 {
+    Some((Decimal { neg, m, e }, i))
+}
+
+/// Exact fast path of decimal → `f64` (Clinger): a mantissa `m ≤ 2⁵³` and a decimal exponent
+/// `|e| ≤ 22`, so that `m` and `10^|e|` are exact in `f64` and one correctly rounded
+/// multiplication or division gives the correctly rounded result. `None` for anything else.
+#[inline(always)]
+fn decimal_f64(d: Decimal) -> Option<f64> {
+    if d.m > 1 << 53 {
         return None;
     }
-    let v = if m == 0 {
+    let v = if d.m == 0 {
         0.0
-    } else if (0..=22).contains(&exp) {
-        m as f64 * POW10[exp as usize]
-    } else if (-22..0).contains(&exp) {
-        m as f64 / POW10[(-exp) as usize]
+    } else if (0..=22).contains(&d.e) {
+        d.m as f64 * POW10[d.e as usize]
+    } else if (-22..0).contains(&d.e) {
+        d.m as f64 / POW10[(-d.e) as usize]
     } else {
         return None;
     };
-    Some(if neg { -v } else { v })
+    Some(if d.neg { -v } else { v })
 }
 
-/// `f32` through [`fast_f64`]: rounding the correctly rounded `f64` to `f32` is correct unless
-/// the `f64` landed exactly on a midpoint between two `f32`s (double rounding); that case, and
-/// results outside the normal `f32` range, go to the standard parser.
-fn fast_f32(b: &[u8]) -> Option<f32> {
-    let x = fast_f64(b)?;
+/// Negative powers of ten rounded to `f64` (not exact).
+const NEG_POW10: [f64; 23] = [
+    1e0, 1e-1, 1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12, 1e-13, 1e-14,
+    1e-15, 1e-16, 1e-17, 1e-18, 1e-19, 1e-20, 1e-21, 1e-22,
+];
+
+/// Correctly rounded `f32` of `d`, or `None` (as [`decimal_f64`]; also for results outside the
+/// normal `f32` range).
+///
+/// First without a division: `x = m · fl(10^e)` (`m ≤ 2⁵³` exact) has two roundings, so
+/// `|x − v| ≤ 2.01·u·|v|` (`u = 2⁻⁵³`) for the exact value `v`: within 2.01 units in the last
+/// place of `x`, at most 5 `f64` steps (bit patterns) even where `v` is in the binade below
+/// (half the spacing). The `f32` rounding boundaries (midpoints between
+/// neighbouring `f32`s) in the normal range are the `f64`s whose 29 bits below the `f32`
+/// significand are `1000…0`; positive `f64` bit patterns are ordered like the values. So if
+/// those 29 bits of `x` are more than 8 away from `1000…0`, no boundary lies between `x` and
+/// `v`, and `x as f32` is `v` correctly rounded. Otherwise the exact path: the correctly
+/// rounded `f64` ([`decimal_f64`]) rounded to `f32` is correct unless it landed exactly on a
+/// midpoint (`f32` midpoints are `f64`s, so otherwise it is on the same side of every midpoint
+/// as `v`); that case gives `None`.
+#[inline(always)]
+fn decimal_f32(d: Decimal) -> Option<f32> {
+    const LOW: u64 = (1 << 29) - 1;
+    const MID: u64 = 1 << 28;
+    let x = if d.m > 1 << 53 {
+        return None;
+    } else if (-22..=0).contains(&d.e) {
+        let x = d.m as f64 * NEG_POW10[(-d.e) as usize];
+        if d.neg {
+            -x
+        } else {
+            x
+        }
+    } else {
+        decimal_f64(d)?
+    };
     let a = x.abs();
     if a == 0.0 {
         return Some(x as f32);
@@ -447,12 +542,32 @@ fn fast_f32(b: &[u8]) -> Option<f32> {
     if !(a >= f32::MIN_POSITIVE as f64 && a <= f32::MAX as f64) {
         return None;
     }
-    // In the normal range the f32 grid is the f64 significand cut to 23 bits: a midpoint has
-    // the 29 dropped bits equal to 1000…0.
-    if x.to_bits() & ((1 << 29) - 1) == 1 << 28 {
+    if (x.to_bits() & LOW).abs_diff(MID) > 8 {
+        return Some(x as f32);
+    }
+    let x = decimal_f64(d)?;
+    if x.to_bits() & LOW == MID {
         return None;
     }
     Some(x as f32)
+}
+
+/// The exact fast path on a whole cell ([`scan_decimal`], [`decimal_f64`]). `None` for
+/// anything else (the caller then uses the standard library's parser, which also produces the
+/// errors): the result, when there is one, is always the one `str::parse::<f64>` gives.
+fn fast_f64(b: &[u8]) -> Option<f64> {
+    match scan_decimal(b)? {
+        (d, n) if n == b.len() => decimal_f64(d),
+        _ => None,
+    }
+}
+
+/// [`fast_f64`] for `f32` ([`decimal_f32`]): always `str::parse::<f32>`'s result, when any.
+fn fast_f32(b: &[u8]) -> Option<f32> {
+    match scan_decimal(b)? {
+        (d, n) if n == b.len() => decimal_f32(d),
+        _ => None,
+    }
 }
 
 /// Numbers the reader parses: the exact fast path, else `FromStr`.
@@ -570,6 +685,150 @@ pub struct TraceReader<R> {
     depth: Option<usize>,
     truth: Option<[usize; 4]>,
     prev_t: Option<f64>,
+    /// Per header column, the slot of [`fast_row`] it fills ([`SKIP`] for other columns).
+    slots: Vec<u8>,
+    /// Try [`fast_row`] first (false only in tests comparing the two paths).
+    fast: bool,
+}
+
+/// Slots of [`fast_row`]: `t`, then `gx..az`, `mx..mz`, `depth`, `qw..qz`.
+const SLOT_GYRO: u8 = 1;
+const SLOT_ACCEL: u8 = 4;
+const SLOT_MAG: u8 = 7;
+const SLOT_DEPTH: u8 = 10;
+const SLOT_TRUTH: u8 = 11;
+/// A column [`fast_row`] skips.
+const SKIP: u8 = u8::MAX;
+const MASK_REQUIRED: u32 = (1 << SLOT_MAG) - 1;
+const MASK_MAG: u32 = 0b111 << SLOT_MAG;
+const MASK_TRUTH: u32 = 0b1111 << SLOT_TRUTH;
+
+/// The 8 digit values in the bytes of `v`, byte 0 the most significant: their number, by
+/// pairwise combination (8 → 4 → 2 → 1 lanes).
+#[inline(always)]
+fn swar8(v: u64) -> u64 {
+    let v = v.wrapping_mul(10).wrapping_add(v >> 8);
+    (((v & 0x0000_00ff_0000_00ff).wrapping_mul(100 + (1_000_000 << 32))
+        + ((v >> 16) & 0x0000_00ff_0000_00ff).wrapping_mul(1 + (10_000 << 32)))
+        >> 32)
+        & 0xffff_ffff
+}
+
+/// The run of ASCII digits at `buf[i..]`, at most 8 of them, `(value, length)`, without
+/// branches on the data; `None` if `buf` has fewer than 8 bytes from `i`.
+///
+/// SWAR on one little-endian `u64`: a byte is a digit iff neither `c - 0x30` nor `c + 0x46`
+/// has its top bit set. A borrow or carry only crosses from a non-digit byte into later bytes,
+/// so the first flagged byte is exactly the first non-digit. The digit values are shifted to
+/// the top of the word (zero bytes in front, i.e. leading zeros) and combined ([`swar8`]).
+#[inline(always)]
+fn digit_word(buf: &[u8], i: usize) -> Option<(u64, usize)> {
+    let c = u64::from_le_bytes(*buf.get(i..)?.first_chunk::<8>()?);
+    let v = c.wrapping_sub(0x3030_3030_3030_3030);
+    let non_digit = (c.wrapping_add(0x4646_4646_4646_4646) | v) & 0x8080_8080_8080_8080;
+    let k = (non_digit.trailing_zeros() / 8) as usize; // 8 when all are digits
+    Some((swar8(v.checked_shl(8 * (8 - k) as u32).unwrap_or(0)), k))
+}
+
+/// The common number form at `buf[s..]`: `[-]digits.digits` with at most 7 integer and 15
+/// fraction digits, 19 in all; the number and where it ends (the caller checks what follows).
+/// Three [`digit_word`]s (integer part, fraction, more fraction), no data-dependent branches
+/// on the usual path; `None` for anything else, left to [`scan_decimal`].
+#[inline(always)]
+fn plain_decimal(buf: &[u8], s: usize) -> Option<(Decimal, usize)> {
+    let neg = *buf.get(s)? == b'-';
+    let p = s + usize::from(neg);
+    // The integer part, usually one digit, and the `.` after it, from one word.
+    let c = u64::from_le_bytes(*buf.get(p..)?.first_chunk::<8>()?);
+    let v = c.wrapping_sub(0x3030_3030_3030_3030);
+    let non_digit = (c.wrapping_add(0x4646_4646_4646_4646) | v) & 0x8080_8080_8080_8080;
+    let k1 = (non_digit.trailing_zeros() / 8) as usize;
+    if k1 == 8 || (c >> (8 * k1)) as u8 != b'.' {
+        return None;
+    }
+    let m1 =
+        if k1 == 1 { v & 0xff } else { swar8(v.checked_shl(8 * (8 - k1) as u32).unwrap_or(0)) };
+    let f = p + k1 + 1;
+    let (m2, k2) = digit_word(buf, f)?;
+    let (m3, k3) = digit_word(buf, f + 8)?;
+    let (m3, k3) = if k2 == 8 { (m3, k3) } else { (0, 0) };
+    if k3 == 8 || k1 + k2 + k3 > 19 || k1 + k2 == 0 {
+        return None;
+    }
+    let m = (m1 * POW10_U64[k2] + m2) * POW10_U64[k3] + m3;
+    Some((Decimal { neg, m, e: -((k2 + k3) as i32) }, f + k2 + k3))
+}
+
+/// The fast path of [`TraceReader`]: one data line at the start of `buf`, parsed in place in a
+/// single pass: cells split as they are parsed, numbers by [`plain_decimal`] or else
+/// [`scan_decimal`] (the exact fast path), skipped cells only checked to be ASCII (so the line
+/// is valid UTF-8). Returns the row and the line's length, or `None` for anything that is not a
+/// plain, complete data line: a comment or empty line, padding, a number outside the exact
+/// fast path, a missing or extra cell, a partial group, no `\n` in `buf`. The slow path then
+/// reads the line and gives the same row, or the error. (Near the end of `buf`, where a
+/// 16-byte window does not fit, cells are read by [`scan_decimal`] alone.)
+/// `t` is not checked against the previous row here.
+#[inline]
+fn fast_row(slots: &[u8], buf: &[u8]) -> Option<(TraceRow, usize)> {
+    if let b'#' | b' ' | b'\t' | b'\r' | b'\n' = buf.first()? {
+        return None;
+    }
+    let mut t = 0.0;
+    let mut v = [0.0f32; 15];
+    let mut present = 0u32;
+    let mut i = 0;
+    let last = slots.len() - 1;
+    for (col, &slot) in slots.iter().enumerate() {
+        if slot == SKIP {
+            loop {
+                match *buf.get(i)? {
+                    b',' | b'\n' => break,
+                    c if c >= 0x80 => return None,
+                    _ => i += 1,
+                }
+            }
+        } else if !matches!(buf.get(i)?, b',' | b'\n' | b'\r') {
+            let (d, end) = match plain_decimal(buf, i) {
+                Some((d, end)) if matches!(buf[end], b',' | b'\n' | b'\r') => (d, end),
+                _ => scan_decimal(&buf[i..]).map(|(d, n)| (d, i + n))?,
+            };
+            i = end;
+            if slot == 0 {
+                t = decimal_f64(d)?;
+            } else {
+                v[slot as usize] = decimal_f32(d)?;
+            }
+            present |= 1 << slot;
+        }
+        let c = *buf.get(i)?;
+        i += 1;
+        if col < last {
+            if c != b',' {
+                return None;
+            }
+        } else if c == b'\r' {
+            if *buf.get(i)? != b'\n' {
+                return None;
+            }
+            i += 1;
+        } else if c != b'\n' {
+            return None;
+        }
+    }
+    let group = |mask: u32| match present & mask {
+        0 => Some(false),
+        p if p == mask => Some(true),
+        _ => None,
+    };
+    if present & MASK_REQUIRED != MASK_REQUIRED {
+        return None;
+    }
+    let mag = group(MASK_MAG)?.then(|| [v[7], v[8], v[9]]);
+    let truth = group(MASK_TRUTH)?.then(|| [v[11], v[12], v[13], v[14]]);
+    let depth = (present & 1 << SLOT_DEPTH != 0).then_some(v[10]);
+    let row =
+        TraceRow { t, gyro: [v[1], v[2], v[3]], accel: [v[4], v[5], v[6]], mag, depth, truth };
+    Some((row, i))
 }
 
 impl<R: BufRead> TraceReader<R> {
@@ -582,7 +841,22 @@ impl<R: BufRead> TraceReader<R> {
         let mag = csv.group(["mx", "my", "mz"])?;
         let depth = csv.index_of("depth");
         let truth = csv.group(["qw", "qx", "qy", "qz"])?;
-        Ok(TraceReader { csv, t, gyro, accel, mag, depth, truth, prev_t: None })
+        let mut slots = vec![SKIP; csv.header().len()];
+        slots[t] = 0;
+        for k in 0..3 {
+            slots[gyro[k]] = SLOT_GYRO + k as u8;
+            slots[accel[k]] = SLOT_ACCEL + k as u8;
+        }
+        for (k, &c) in mag.iter().flatten().enumerate() {
+            slots[c] = SLOT_MAG + k as u8;
+        }
+        if let Some(c) = depth {
+            slots[c] = SLOT_DEPTH;
+        }
+        for (k, &c) in truth.iter().flatten().enumerate() {
+            slots[c] = SLOT_TRUTH + k as u8;
+        }
+        Ok(TraceReader { csv, t, gyro, accel, mag, depth, truth, prev_t: None, slots, fast: true })
     }
 
     /// The optional columns present in the header.
@@ -596,6 +870,23 @@ impl<R: BufRead> TraceReader<R> {
 
     /// The next row, `Ok(None)` at the end.
     pub fn next_row(&mut self) -> Result<Option<TraceRow>, TraceError> {
+        if self.fast {
+            let slots = &self.slots;
+            if let Some(row) = self.csv.next_fast(|buf| fast_row(slots, buf))? {
+                if let Some(prev) = self.prev_t {
+                    if row.t <= prev {
+                        let line = self.csv.line;
+                        return Err(TraceError::TimeNotIncreasing {
+                            line,
+                            t: row.t,
+                            previous: prev,
+                        });
+                    }
+                }
+                self.prev_t = Some(row.t);
+                return Ok(Some(row));
+            }
+        }
         let Some(rec) = self.csv.next_record()? else {
             return Ok(None);
         };
@@ -762,10 +1053,15 @@ fn fixed_f32_into<const D: usize>(v: f32, out: &mut [u8; 24]) -> Option<usize> {
 }
 
 /// `t` (s) with at most 9 decimals, trailing zeros dropped, if that reads back as exactly
-/// `t` (checked with the exact parser [`fast_f64`]); else `None`, writing garbage. For
-/// `|t| < 4e6` s these are then the digits of the shortest round trip (`ryu`'s, without its
-/// `.0` or exponent form), found faster: `f64` spacing there is below 1e-9, so one 9-decimal
-/// number at most reads back as `t`.
+/// `t`; else `None`, writing garbage. For `|t| < 4e6` s these are then the digits of the
+/// shortest round trip (`ryu`'s, without its `.0` or exponent form), found faster: `f64`
+/// spacing there is below 1e-9, so one 9-decimal number at most reads back as `t`.
+///
+/// "Reads back" is what [`fast_f64`] (the reader's exact path) gives for the written text
+/// `m·10^-k` (`m` the digits, `k ≤ 9` the decimals): the correctly rounded `m / 10^k`. That
+/// is the same rational number as `n / 10^9` (`n = round(|t|·10^9)`), so while `n ≤ 2⁵³`
+/// (exact in `f64`) the one correctly rounded division `n / 1e9` gives the same value
+/// without parsing; larger `n` (`|t|` above about 9e6 s) parse the text back.
 #[inline]
 fn time_fixed(t: f64, out: &mut [u8; 24]) -> Option<usize> {
     if !t.is_finite() || t.abs() >= 4e9 || t == 0.0 {
@@ -776,54 +1072,71 @@ fn time_fixed(t: f64, out: &mut [u8; 24]) -> Option<usize> {
         return None;
     }
     let k = write_fixed::<9>(t < 0.0, n, out);
-    (fast_f64(&out[..k])?.to_bits() == t.to_bits()).then_some(k)
+    let back = if n <= 1 << 53 { n as f64 / 1e9 } else { fast_f64(&out[..k])?.abs() };
+    (back == t.abs()).then_some(k)
+}
+
+/// The 8 decimal digits of `n < 10^8` (leading zeros included) as byte values 0..=9, the most
+/// significant in byte 0 (little-endian order, i.e. text order), computed in parallel: split
+/// into two 4-digit halves in 32-bit lanes, each split by 100 (`x·10486 >> 20` is `x / 100`
+/// for `x < 10^4`), then each 2-digit lane by 10 (`x·103 >> 10` is `x / 10` for `x < 100`);
+/// no product reaches the next lane.
+#[inline(always)]
+fn digits8(n: u32) -> u64 {
+    let x = u64::from(n / 10_000) | u64::from(n % 10_000) << 32;
+    let hundreds = ((x * 10_486) >> 20) & 0x0000_007f_0000_007f;
+    let x = hundreds | (x - hundreds * 100) << 16;
+    let tens = ((x * 103) >> 10) & 0x000f_000f_000f_000f;
+    tens | (x - tens * 10) << 8
 }
 
 /// `±n·10^-D` (`n ≠ 0`, `n / 10^D < 2^32`) into the start of `out`, trailing zeros of the
-/// fraction dropped: the number of bytes written (at most 1 + 10 + 1 + 9).
+/// fraction dropped: the number of bytes written (at most 1 + 10 + 1 + 9; up to 21 bytes of
+/// `out` are overwritten).
 #[inline]
 fn write_fixed<const D: usize>(neg: bool, n: u64, out: &mut [u8; 24]) -> usize {
-    let mut k = 0;
-    if neg {
-        out[0] = b'-';
-        k = 1;
-    }
+    const { assert!(D <= 9) };
+    out[0] = b'-';
+    let mut k = usize::from(neg);
     // `ip < 2^32` (< 1e9 from `fixed_f32_into`), `fp < 10^D ≤ 1e9`.
-    let (mut ip, mut fp) = ((n / POW10_U64[D]) as u32, (n % POW10_U64[D]) as u32);
-    // Integer part: count its digits, then write them right to left, two at a time.
-    let mut len = 1;
-    while len < 10 && u64::from(ip) >= POW10_U64[len] {
-        len += 1;
-    }
-    let mut i = k + len;
-    while ip >= 10 {
-        let d = (ip % 100) as usize * 2;
-        ip /= 100;
-        out[i - 2..i].copy_from_slice(&DIGIT_PAIRS[d..d + 2]);
-        i -= 2;
-    }
-    if i > k {
+    let (mut ip, fp) = ((n / POW10_U64[D]) as u32, (n % POW10_U64[D]) as u32);
+    if ip < 10 {
         out[k] = b'0' + ip as u8;
-    }
-    k += len;
-    if D > 0 && fp != 0 {
-        // All D digits (a fixed number of steps), then trailing zeros dropped.
-        out[k] = b'.';
-        let mut i = k + 1 + D;
-        for _ in 0..D / 2 {
-            let d = (fp % 100) as usize * 2;
-            fp /= 100;
+        k += 1;
+    } else {
+        // Count the digits, then write them right to left, two at a time.
+        let mut len = 2;
+        while len < 10 && u64::from(ip) >= POW10_U64[len] {
+            len += 1;
+        }
+        let mut i = k + len;
+        while ip >= 10 {
+            let d = (ip % 100) as usize * 2;
+            ip /= 100;
             out[i - 2..i].copy_from_slice(&DIGIT_PAIRS[d..d + 2]);
             i -= 2;
         }
-        if D % 2 == 1 {
-            out[i - 1] = b'0' + fp as u8;
+        if i > k {
+            out[k] = b'0' + ip as u8;
         }
-        let mut end = k + 1 + D;
-        while out[end - 1] == b'0' {
-            end -= 1;
+        k += len;
+    }
+    if D > 0 && fp != 0 {
+        // The D digits as 8 (or 1 + 8): the trailing zero digits are the top zero bytes.
+        out[k] = b'.';
+        k += 1;
+        let rest = if D == 9 {
+            out[k] = b'0' + (fp / 100_000_000) as u8;
+            k += 1;
+            fp % 100_000_000
+        } else {
+            fp * POW10_U64[8 - D.min(8)] as u32
+        };
+        if rest != 0 {
+            let d = digits8(rest);
+            out[k..k + 8].copy_from_slice(&(d | 0x3030_3030_3030_3030).to_le_bytes());
+            k += 8 - (d.leading_zeros() / 8) as usize;
         }
-        k = end;
     }
     k
 }
@@ -947,22 +1260,32 @@ pub const BIAS_DECIMALS: usize = 6;
 /// Output is buffered in blocks: end with [`EstimateWriter::finish`].
 pub struct EstimateWriter<W: Write> {
     w: W,
-    buf: Vec<u8>,
+    /// The block being assembled: `buf[..len]`; rows are written into it in place.
+    buf: Box<[u8]>,
+    len: usize,
     fb: ryu::Buffer,
 }
+
+/// Room after [`OUT_BLOCK`] for one more estimate line: at most 24 + 10 · 25 + 6 bytes.
+const LINE_MAX: usize = 512;
 
 impl<W: Write> EstimateWriter<W> {
     /// Write the header.
     pub fn new(mut w: W) -> io::Result<Self> {
         writeln!(w, "{ESTIMATE_HEADER}")?;
-        Ok(EstimateWriter { w, buf: Vec::with_capacity(OUT_BLOCK + 512), fb: ryu::Buffer::new() })
+        Ok(EstimateWriter {
+            w,
+            buf: vec![0; OUT_BLOCK + LINE_MAX].into_boxed_slice(),
+            len: 0,
+            fb: ryu::Buffer::new(),
+        })
     }
 
     /// One row.
     pub fn row(&mut self, r: &EstimateRow) -> io::Result<()> {
-        // The line is assembled in a stack buffer (fixed-size writes, no per-number copies)
-        // and appended to the block once: at most 24 + 11 · 25 + 6 bytes.
-        let mut b = [0u8; 384];
+        // Written in place into the block (fixed-size writes into 24-byte slots, no copies).
+        let start = self.len;
+        let b: &mut [u8; LINE_MAX] = (&mut self.buf[start..start + LINE_MAX]).try_into().unwrap();
         let mut n = 0;
         let slot: &mut [u8; 24] = (&mut b[..24]).try_into().unwrap();
         if let Some(k) = time_fixed(r.t, slot) {
@@ -972,9 +1295,9 @@ impl<W: Write> EstimateWriter<W> {
             b[..s.len()].copy_from_slice(s);
             n = s.len();
         }
-        n = self.fixed_f32s::<Q_DECIMALS>(&r.q, &mut b, n);
-        n = self.fixed_f32s::<EULER_DECIMALS>(&r.euler_deg, &mut b, n);
-        n = self.fixed_f32s::<BIAS_DECIMALS>(&r.bias_dps, &mut b, n);
+        n = fixed_f32s::<Q_DECIMALS>(&mut self.fb, &r.q, b, n);
+        n = fixed_f32s::<EULER_DECIMALS>(&mut self.fb, &r.euler_deg, b, n);
+        n = fixed_f32s::<BIAS_DECIMALS>(&mut self.fb, &r.bias_dps, b, n);
         b[n] = b',';
         n += 1;
         let mut fbuf = [0; 5];
@@ -982,43 +1305,48 @@ impl<W: Write> EstimateWriter<W> {
         b[n..n + f.len()].copy_from_slice(f);
         n += f.len();
         b[n] = b'\n';
-        self.buf.extend_from_slice(&b[..n + 1]);
-        if self.buf.len() >= OUT_BLOCK {
-            self.w.write_all(&self.buf)?;
-            self.buf.clear();
+        self.len = start + n + 1;
+        if self.len >= OUT_BLOCK {
+            self.w.write_all(&self.buf[..self.len])?;
+            self.len = 0;
         }
         Ok(())
-    }
-
-    /// `,` and each of `vs` with `D` decimals at most (see [`fixed_f32`]) into `b` from `n`;
-    /// the new end.
-    #[inline]
-    fn fixed_f32s<const D: usize>(&mut self, vs: &[f32], b: &mut [u8; 384], mut n: usize) -> usize {
-        for &v in vs {
-            b[n] = b',';
-            n += 1;
-            let slot: &mut [u8; 24] = (&mut b[n..n + 24]).try_into().unwrap();
-            match fixed_f32_into::<D>(v, slot) {
-                Some(k) => n += k,
-                None => {
-                    // Outside the fixed formatter's range (|v| ≥ 1e9): shortest round trip.
-                    let s = self.fb.format_finite(v).as_bytes();
-                    slot[..s.len()].copy_from_slice(s);
-                    n += s.len();
-                }
-            }
-        }
-        n
     }
 
     /// Write what is buffered, flush and return the inner writer. Rows are buffered: without
     /// this call the last rows are lost.
     pub fn finish(mut self) -> io::Result<W> {
-        self.w.write_all(&self.buf)?;
-        self.buf.clear();
+        self.w.write_all(&self.buf[..self.len])?;
+        self.len = 0;
         self.w.flush()?;
         Ok(self.w)
     }
+}
+
+/// `,` and each of `vs` with `D` decimals at most (see [`fixed_f32`]) into `b` from `n`; the
+/// new end.
+#[inline(always)]
+fn fixed_f32s<const D: usize>(
+    fb: &mut ryu::Buffer,
+    vs: &[f32],
+    b: &mut [u8; LINE_MAX],
+    mut n: usize,
+) -> usize {
+    for &v in vs {
+        b[n] = b',';
+        n += 1;
+        let slot: &mut [u8; 24] = (&mut b[n..n + 24]).try_into().unwrap();
+        match fixed_f32_into::<D>(v, slot) {
+            Some(k) => n += k,
+            None => {
+                // Outside the fixed formatter's range (|v| ≥ 1e9): shortest round trip.
+                let s = fb.format_finite(v).as_bytes();
+                slot[..s.len()].copy_from_slice(s);
+                n += s.len();
+            }
+        }
+    }
+    n
 }
 
 /// Streaming reader of estimate files (required `t,qw,qx,qy,qz,roll,pitch,yaw`; optional
@@ -1270,6 +1598,281 @@ mod tests {
             }
         }
         assert!(fast > 200_000, "the fast path is taken for most inputs ({fast})");
+    }
+
+    /// The number `text` gives on the reader's fast line path ([`plain_decimal`], else
+    /// [`scan_decimal`], as in [`fast_row`]), the cell followed by `,` and padding.
+    fn fast_cell(text: &str) -> Option<Decimal> {
+        let buf = format!("{text},0000000000000000000000000");
+        let buf = buf.as_bytes();
+        match plain_decimal(buf, 0) {
+            Some((d, end)) if buf[end] == b',' => (end == text.len()).then_some(d),
+            _ => scan_decimal(buf).filter(|&(_, n)| n == text.len()).map(|(d, _)| d),
+        }
+    }
+
+    /// Every way the readers parse `text` agrees with `str::parse` where it gives a value.
+    fn check_parsers(text: &str) {
+        let b = text.as_bytes();
+        let want32 = text.parse::<f32>().map(f32::to_bits);
+        let want64 = text.parse::<f64>().map(f64::to_bits);
+        if let Some(v) = fast_f64(b) {
+            assert_eq!(want64, Ok(v.to_bits()), "fast_f64 {text:?}");
+        }
+        if let Some(v) = fast_f32(b) {
+            assert_eq!(want32, Ok(v.to_bits()), "fast_f32 {text:?}");
+        }
+        if let Some(d) = fast_cell(text) {
+            if let Some(v) = decimal_f64(d) {
+                assert_eq!(want64, Ok(v.to_bits()), "line path f64 {text:?}");
+            }
+            if let Some(v) = decimal_f32(d) {
+                assert_eq!(want32, Ok(v.to_bits()), "line path f32 {text:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn line_path_numbers_agree_with_the_standard_parser() {
+        let mut rng = crate::rng::Rng::new(5, 0);
+        let mut plain = 0;
+        for k in 0..300_000u32 {
+            let bits = rng.next_u64();
+            let x32 = f32::from_bits(bits as u32);
+            let scaled = (rng.normal() * 10f64.powi((k % 30) as i32 - 15)) as f32;
+            // An f32 midpoint (exact in f64) and its f64 neighbours, printed with enough digits
+            // to land next to, on and around it: the slow branch of `decimal_f32`.
+            let mid = (f64::from(scaled) + f64::from(f32::from_bits(scaled.to_bits() + 1))) / 2.0;
+            let near =
+                f64::from_bits(mid.to_bits().wrapping_add(rng.next_u64() % 17).wrapping_sub(8));
+            for t in [
+                ryu::Buffer::new().format(x32).to_string(),
+                ryu::Buffer::new().format(scaled).to_string(),
+                ryu::Buffer::new().format(f64::from_bits(bits)).to_string(),
+                format!("{:.12}", near),
+                format!("{:.17}", mid),
+                format!("{}", near),
+                format!("{:.1$}", scaled, (k % 16) as usize),
+                format!("-{:.1$}", rng.uniform() * 1e3, (k % 19) as usize),
+                format!("{}.{}", k % 1000, bits % 10u64.pow(1 + k % 15)),
+            ] {
+                check_parsers(&t);
+                if plain_decimal(format!("{t},0000000000000000").as_bytes(), 0).is_some() {
+                    plain += 1;
+                }
+            }
+        }
+        assert!(plain > 1_000_000, "the plain form is taken for most inputs ({plain})");
+        for t in [
+            "0.0",
+            "-0.0",
+            "1.0",
+            "5.",
+            ".5",
+            "-.5",
+            ".",
+            "-.",
+            "-",
+            "",
+            "00000001.5",
+            "1.2.3",
+            "0.00000000000000000001",
+            "12345678.1",
+            "1234567.123456789012",
+            "9.999999999999999999",
+            "3.4028235e38",
+            "3.4028236e38",
+            "340282350000000000000000000000000000000.0",
+            "0.000000000000000000000000000000000000011754944",
+            "0.000000000000000000000000000000000000011754942",
+            "1e-45",
+            "16777217.0",
+            "9007199254740993.0",
+            "0.1",
+            "-9.80665",
+            "1.0e",
+            "1.0e+",
+            "1.0e-5",
+            "1,0",
+            "0x1.0",
+        ] {
+            check_parsers(t);
+        }
+    }
+
+    #[test]
+    fn digits8_is_exact_for_every_input() {
+        let mut d = [0u8; 8];
+        for n in 0..100_000_000u32 {
+            let got = digits8(n);
+            // Incrementing the reference digits is cheaper than dividing for every n.
+            if n > 0 {
+                let mut i = 7;
+                while d[i] == 9 {
+                    d[i] = 0;
+                    i -= 1;
+                }
+                d[i] += 1;
+            }
+            if got != u64::from_le_bytes(d) {
+                panic!("digits8({n}) = {got:x}");
+            }
+        }
+    }
+
+    /// Rows (as `Debug` text, so `-0.0` differs from `0.0`) or the error message of each
+    /// `next_row` until the end or the first error.
+    fn read_all(text: &[u8], fast: bool, capacity: usize) -> Vec<String> {
+        let mut out = Vec::new();
+        let mut r = match TraceReader::new(io::BufReader::with_capacity(capacity, text)) {
+            Ok(r) => r,
+            Err(e) => return vec![e.to_string()],
+        };
+        r.fast = fast;
+        loop {
+            match r.next_row() {
+                Ok(Some(row)) => out.push(format!("{row:?}")),
+                Ok(None) => return out,
+                Err(e) => {
+                    out.push(format!("{e} {:?} {:?}", e.line(), e.column()));
+                    return out;
+                }
+            }
+        }
+    }
+
+    /// A random trace text: a random header (required, optional and unknown columns in random
+    /// order) and rows of plausible and damaged cells, comments, blank lines, `\r\n`.
+    fn random_trace(rng: &mut crate::rng::Rng) -> Vec<u8> {
+        let pick = |rng: &mut crate::rng::Rng, n: usize| (rng.next_u64() % n as u64) as usize;
+        let mut cols: Vec<&str> = vec!["t", "gx", "gy", "gz", "ax", "ay", "az"];
+        for group in [&["mx", "my", "mz"][..], &["depth"], &["qw", "qx", "qy", "qz"], &["x"]] {
+            if pick(rng, 2) == 0 {
+                cols.extend_from_slice(group);
+            }
+        }
+        if pick(rng, 20) == 0 {
+            cols.remove(pick(rng, cols.len())); // a missing column
+        }
+        for i in (1..cols.len()).rev() {
+            cols.swap(i, pick(rng, i + 1));
+        }
+        let mut text = cols.join(",").into_bytes();
+        text.push(b'\n');
+        let mut t = 0.0f64;
+        for _ in 0..pick(rng, 40) {
+            match pick(rng, 30) {
+                0 => text.extend_from_slice(b"# comment, 1.0\n"),
+                1 => text.extend_from_slice(b"\n"),
+                2 => text.extend_from_slice(b"  \t\r\n"),
+                _ => {}
+            }
+            t += [0.02, 0.001, 1e-7, 0.0, -0.01, 1234.5][pick(rng, 6)];
+            let mut cells: Vec<String> = cols
+                .iter()
+                .map(|&c| {
+                    let v = (rng.normal() * 10f64.powi(pick(rng, 12) as i32 - 8)) as f32;
+                    let empty_ok = !matches!(c, "t" | "gx" | "gy" | "gz" | "ax" | "ay" | "az");
+                    match pick(rng, 40) {
+                        0 => String::new(),
+                        1 => "NaN".into(),
+                        2 => "-inf".into(),
+                        3 => format!(" {v}"),
+                        4 => format!("{v}\r"),
+                        5 => "1e5".into(),
+                        6 => "x".into(),
+                        7 => "é".into(),
+                        8 => format!("{v:e}"),
+                        9 => format!("+{}", v.abs()),
+                        10 => format!("{:.20}", v),
+                        11 => "1.5.5".into(),
+                        12 => "-".into(),
+                        _ if c == "t" => ryu::Buffer::new().format(t).to_string(),
+                        _ if empty_ok && pick(rng, 3) == 0 => String::new(),
+                        _ => ryu::Buffer::new().format(v).to_string(),
+                    }
+                })
+                .collect();
+            match pick(rng, 50) {
+                0 => {
+                    cells.pop();
+                }
+                1 => cells.push("1".into()),
+                _ => {}
+            }
+            text.extend_from_slice(cells.join(",").as_bytes());
+            text.extend_from_slice(if pick(rng, 10) == 0 { b"\r\n" } else { b"\n" });
+        }
+        if pick(rng, 4) == 0 {
+            text.pop(); // no final newline
+        }
+        text
+    }
+
+    #[test]
+    fn line_fast_path_gives_the_slow_paths_rows_and_errors() {
+        let mut rng = crate::rng::Rng::new(17, 0);
+        for case in 0..20_000 {
+            let text = random_trace(&mut rng);
+            // Small buffers put lines across buffer ends.
+            let cap = [16, 37, 100, 256, 1 << 16][case % 5];
+            let slow = read_all(&text, false, 1 << 16);
+            assert_eq!(
+                read_all(&text, true, cap),
+                slow,
+                "case {case}, capacity {cap}:\n{}",
+                String::from_utf8_lossy(&text)
+            );
+        }
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(5000))]
+
+        /// Any `f32`, written shortest round trip (as the trace writer does), with a fixed
+        /// number of decimals, or with an exponent.
+        #[test]
+        fn prop_f32_texts_parse_exactly(bits in proptest::num::u32::ANY, decimals in 0usize..20) {
+            let x = f32::from_bits(bits);
+            check_parsers(ryu::Buffer::new().format(x));
+            check_parsers(&format!("{x:.decimals$}"));
+            check_parsers(&format!("{x:e}"));
+        }
+
+        /// Any `f64`, likewise (the `t` column).
+        #[test]
+        fn prop_f64_texts_parse_exactly(bits in proptest::num::u64::ANY, decimals in 0usize..20) {
+            let x = f64::from_bits(bits);
+            check_parsers(ryu::Buffer::new().format(x));
+            check_parsers(&format!("{x:.decimals$}"));
+        }
+
+        /// Decimal numbers of every shape the fast paths take and just beyond (more digits,
+        /// exponents).
+        #[test]
+        fn prop_decimal_texts_parse_exactly(
+            sign in "[-+]?",
+            int in "[0-9]{0,10}",
+            frac in proptest::option::of("[0-9]{0,20}"),
+            exp in proptest::option::of(-45i32..45),
+        ) {
+            let frac = frac.map(|f| format!(".{f}")).unwrap_or_default();
+            let exp = exp.map(|e| format!("e{e}")).unwrap_or_default();
+            check_parsers(&format!("{sign}{int}{frac}{exp}"));
+        }
+
+        /// Arbitrary strings of number characters.
+        #[test]
+        fn prop_number_like_texts(text in "[0-9.eE+-]{0,24}") {
+            check_parsers(&text);
+        }
+
+        /// Whole traces: the fast line path reads the slow path's rows and errors.
+        #[test]
+        fn prop_fast_and_slow_line_paths_agree(seed in proptest::num::u64::ANY, cap in 8usize..300) {
+            let text = random_trace(&mut crate::rng::Rng::new(seed, 0));
+            proptest::prop_assert_eq!(read_all(&text, true, cap), read_all(&text, false, 1 << 16));
+        }
     }
 
     /// `v` rounded to `d` decimals half away from zero, as a signed integer count of 10^-d,
