@@ -15,6 +15,7 @@
 //! ([`number::push_number`]); flash keeps the internal `f32` bits, so a save and a load are
 //! exact.
 
+mod decimal;
 pub mod number;
 mod table;
 
