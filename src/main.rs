@@ -44,7 +44,7 @@ fn main() {
 }
 
 #[cfg(all(target_os = "none", feature = "board"))]
-use {defmt_rtt as _, panic_probe as _};
+use defmt_rtt as _;
 
 #[cfg(all(target_os = "none", feature = "board"))]
 #[rtic::app(device = stm32f1xx_hal::pac, dispatchers = [UART4, UART5])]

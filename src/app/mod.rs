@@ -1,7 +1,7 @@
 //! Board glue used by the RTIC application in `main.rs` (bare-metal targets only): the clock
 //! tree, the ADC scan, USART transmission, the LSM303DLH's read schedule, the status LED, the
-//! command queues and the settings flash (feature `serial-commands`) and the independent
-//! watchdog.
+//! command queues and the settings flash (feature `serial-commands`), the independent
+//! watchdog and the panic handler.
 
 pub mod adc_scan;
 pub mod clocks;
@@ -9,6 +9,7 @@ pub mod clocks;
 pub mod commands;
 pub mod imu;
 pub mod led;
+mod panic;
 // Compiled in both variants: RTIC's generated code names the types of the local resources
 // even when their `#[cfg]` is off; without `serial-commands` nothing uses it (the linker drops
 // it).
