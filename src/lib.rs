@@ -16,3 +16,4 @@ pub mod nmea;
 pub mod persist;
 pub mod pipeline;
 pub mod registry;
+pub mod supervision;
