@@ -11,6 +11,8 @@
 pub mod adc;
 pub mod board;
 pub mod command;
+#[cfg(test)]
+mod fault_injection;
 pub mod lsm303dlh;
 pub mod nmea;
 pub mod persist;
