@@ -4,7 +4,7 @@
 //! DWT timeouts and resets the peripheral between START tries: bus recovery), so a dead bus
 //! costs about 1 ms per failed read and never hangs the filter. Here:
 //! - a read is tried [`READ_ATTEMPTS`] times (bounded retries);
-//! - a cycle without an accelerometer sample is a fault ([`Reading::fault`] → the status bit
+//! - a cycle without an accelerometer sample is a fault (`fault` of [`Reading`] → the status bit
 //!   `I2C_FAULT`); the filter carries on with the gyros alone;
 //! - after [`FAILED_CYCLES_BEFORE_REINIT`] such cycles in a row the sensor is configured again
 //!   (it may have been power-cycled); while that fails it is retried once per second
