@@ -11,8 +11,11 @@
 pub mod adc;
 pub mod board;
 pub mod command;
+#[cfg(test)]
+mod fault_injection;
 pub mod lsm303dlh;
 pub mod nmea;
 pub mod persist;
 pub mod pipeline;
 pub mod registry;
+pub mod supervision;

@@ -44,7 +44,7 @@ fn main() {
 }
 
 #[cfg(all(target_os = "none", feature = "board"))]
-use {defmt_rtt as _, panic_probe as _};
+use defmt_rtt as _;
 
 #[cfg(all(target_os = "none", feature = "board"))]
 #[rtic::app(device = stm32f1xx_hal::pac, dispatchers = [UART4, UART5])]
@@ -52,15 +52,18 @@ mod firmware {
     use core::num::NonZeroU32;
 
     use cortex_m::peripheral::DWT;
-    use ekf_core::Flags;
     #[cfg(feature = "serial-commands")]
     use ekf_core::{AttitudeFilter, ImuSample};
     #[cfg(not(feature = "serial-commands"))]
     use inemo_ahrs::pipeline::PipelineSettings;
+    use inemo_ahrs::supervision::{
+        led::{self, Health},
+        watchdog::{FeedPolicy, Verdict},
+    };
     use inemo_ahrs::{
         adc::SCAN_LEN,
         board,
-        nmea::{NmeaError, Sentence, Status},
+        nmea::{self, Sentence, Status},
         pipeline::{Inputs, Pipeline},
     };
     // The types of the command layer's local resources are named in both variants (RTIC's
@@ -86,10 +89,9 @@ mod firmware {
     use crate::app::settings_flash::SettingsFlash;
     use crate::app::{
         adc_scan::{self, AdcPins, AdcScan},
-        clocks::{self, ClockSource, ResetCause},
+        clocks::{self, ClockSource},
         i2c_clock_hz,
         imu::{self, Imu},
-        led::{self, Health},
         uart_tx::{DmaTx, TX_BUF_LEN},
         watchdog::Watchdog,
         AdcShared,
@@ -104,9 +106,6 @@ mod firmware {
     /// LY330ALH turn-on time is a few hundred ms); ADC frames of that time are discarded.
     const GYRO_SETTLE_MS: u32 = 500;
 
-    /// Consecutive cycles with an estimator health reset (`Flags::HEALTH_RESET`) after which
-    /// the cycles no longer count as healthy and the watchdog is no longer fed.
-    const HEALTH_RESET_STORM: u32 = 10;
     /// Reads of the USART per RX interrupt at most (one byte is normally waiting).
     #[cfg(feature = "serial-commands")]
     const RX_READS_PER_IRQ: u8 = 4;
@@ -229,7 +228,7 @@ mod firmware {
         );
         let mut imu = Imu::new(i2c, settings.filter_rate_hz);
         // A failure here is not fatal: the filter retries once per second meanwhile.
-        let imu_error = imu.configure().err();
+        let imu_result = imu.configure();
 
         // ADC1 scan of the six channels, TIM3-triggered, by DMA1 channel 1.
         let pins = AdcPins(
@@ -243,21 +242,26 @@ mod firmware {
         let adc_scan = adc_scan::start(dp.ADC1, dp.TIM3, pins, dma1.1, cx.local.adc_buf, &mut rcc);
 
         defmt::println!(
-            "inemo-ahrs {=str}: {} SYSCLK {=u32} Hz, reset {}, I2C {=u32} Hz, filter {=u16} Hz, ADC {=u32} Hz",
+            "inemo-ahrs {=str}: {} SYSCLK {=u32} Hz, reset {=str}, I2C {=u32} Hz, filter {=u16} Hz, ADC {=u32} Hz",
             env!("CARGO_PKG_VERSION"),
             source,
             sysclk_hz,
-            reset,
+            reset.tag(),
             i2c_hz,
             settings.filter_rate_hz,
             adc_scan::FRAME_HZ
         );
-        match imu_error {
-            None => defmt::println!(
-                "LSM303DLH configured: accel {=u16} Hz",
-                imu.accel_config().rate.hz()
-            ),
-            Some(e) => defmt::error!("LSM303DLH configuration failed: {=str}", imu::describe(&e)),
+        match imu_result {
+            Ok(wrong_id) => {
+                if let Some(id) = wrong_id {
+                    defmt::warn!("LSM303DLH: magnetometer identifies as {=[u8]:a}", &id[..]);
+                }
+                defmt::println!(
+                    "LSM303DLH configured: accel {=u16} Hz",
+                    imu.accel_config().rate.hz()
+                )
+            }
+            Err(e) => defmt::error!("LSM303DLH configuration failed: {=str}", imu::describe(&e)),
         }
         if !adc_scan.calibrated() {
             defmt::error!("ADC calibration did not complete");
@@ -284,7 +288,8 @@ mod firmware {
         });
         #[cfg(not(feature = "serial-commands"))]
         let settings_field = None;
-        match boot_sentence(source, reset, imu.configured(), settings_field) {
+        let version = env!("CARGO_PKG_VERSION");
+        match nmea::pinab(source.tag(), reset, imu.configured(), version, settings_field) {
             Ok(s) => {
                 tx.send([s.as_bytes()]);
             }
@@ -322,32 +327,6 @@ mod firmware {
                 watchdog,
             },
         )
-    }
-
-    /// `$PINAB,<clock>,<reset cause>,<imu>,<version>[,<settings>]*hh`: sent once at boot.
-    /// clock `HSE72` | `HSI64`; reset `POR` `PIN` `SFT` `IWDG` `WWDG` `LPWR` `UNK`;
-    /// imu `OK` | `FAIL` (LSM303DLH configured or not); settings (only with the feature
-    /// `serial-commands`) `A` | `B` (the flash page they were loaded from) | `DEFAULTS` (no
-    /// valid record).
-    fn boot_sentence(
-        source: ClockSource,
-        reset: ResetCause,
-        imu_ok: bool,
-        settings: Option<&str>,
-    ) -> Result<Sentence, NmeaError> {
-        let mut s = Sentence::new();
-        let imu = if imu_ok { "OK" } else { "FAIL" };
-        for field in
-            ["PINAB,", source.tag(), ",", reset.tag(), ",", imu, ",", env!("CARGO_PKG_VERSION")]
-        {
-            s.push_str(field)?;
-        }
-        if let Some(settings) = settings {
-            s.push_str(",")?;
-            s.push_str(settings)?;
-        }
-        s.finish()?;
-        Ok(s)
     }
 
     #[idle]
@@ -467,7 +446,8 @@ mod firmware {
     /// The filter: one cycle every 1/filter_rate_hz.
     ///
     /// A cycle is healthy when it runs to its end and the estimator has not reported a health
-    /// reset in each of the last [`HEALTH_RESET_STORM`] cycles; only then is the watchdog fed.
+    /// reset in each of the last `HEALTH_RESET_STORM` cycles (`supervision::watchdog`); only
+    /// then is the watchdog fed.
     #[task(priority = 2, local = [imu, pipeline, tx, sysclk_hz, watchdog], shared = [adc, health, rx, cmd])]
     async fn filter(mut cx: filter::Context) {
         #[cfg(feature = "serial-commands")]
@@ -479,7 +459,7 @@ mod firmware {
         let sysclk = *cx.local.sysclk_hz;
         // Non-zero divisors: no division-by-zero check (and panic path) in the loop.
         let cycles_per_us = NonZeroU32::new(sysclk / 1_000_000).unwrap_or(NonZeroU32::MIN);
-        let mut resets_in_row = 0u32;
+        let mut feed_policy = FeedPolicy::default();
 
         // Let the gyros settle, then drop the frames of that time.
         let mut next = Mono::now().as_ticks().wrapping_add(GYRO_SETTLE_MS * (MONO_HZ / 1000));
@@ -515,6 +495,9 @@ mod firmware {
             }
 
             let reading = cx.local.imu.read();
+            if let Some(event) = &reading.event {
+                imu::log_event(event);
+            }
             if reading.fault {
                 board_status.insert(Status::I2C_FAULT);
             }
@@ -607,16 +590,12 @@ mod firmware {
             }
 
             // The watchdog: fed at the end of a healthy cycle only.
-            if step.status.flags().contains(Flags::HEALTH_RESET) {
-                resets_in_row = resets_in_row.saturating_add(1);
-                if resets_in_row == HEALTH_RESET_STORM {
-                    defmt::error!("estimator health resets in a row: watchdog no longer fed");
+            match feed_policy.cycle_end(step.status) {
+                Verdict::Feed => cx.local.watchdog.feed(),
+                Verdict::StormStarted => {
+                    defmt::error!("estimator health resets in a row: watchdog no longer fed")
                 }
-            } else {
-                resets_in_row = 0;
-            }
-            if resets_in_row < HEALTH_RESET_STORM {
-                cx.local.watchdog.feed();
+                Verdict::Starve => {}
             }
 
             // Next period; after an overrun start again from now rather than catch up.
@@ -643,7 +622,7 @@ mod firmware {
                 let new = led::mode(health, started);
                 started |= health.cycles > 0;
                 if new != mode {
-                    defmt::println!("status LED: {}", new);
+                    defmt::println!("status LED: {=str}", new.name());
                     mode = new;
                 }
             }

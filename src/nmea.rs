@@ -44,6 +44,7 @@
 
 mod error;
 mod number;
+mod pinab;
 mod pinah;
 mod prdid;
 mod sentence;
@@ -52,6 +53,7 @@ mod verify;
 
 pub use error::NmeaError;
 pub use number::{round_scaled, AngleRange, Sign, MAX_DECIMALS};
+pub use pinab::pinab;
 pub use pinah::{pinah, PinahData, PINAH_CYCLE_MAX_US};
 pub use prdid::prdid;
 pub use sentence::{checksum, is_body_byte, Sentence, MAX_BODY_LEN, MAX_SENTENCE_LEN};

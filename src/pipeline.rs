@@ -55,6 +55,9 @@ pub struct PipelineSettings {
 }
 
 impl Default for PipelineSettings {
+    // Out of line: the firmware builds the defaults in several places (boot, `RESET`, the
+    // flash loader) and one copy of this code is enough.
+    #[inline(never)]
     fn default() -> Self {
         PipelineSettings {
             filter: Settings::default(),

@@ -6,6 +6,7 @@
 //! PLL runs from HSI/2.
 
 use inemo_ahrs::board;
+pub use inemo_ahrs::supervision::reset_cause::ResetCause;
 use stm32f1xx_hal::{
     flash::{self, FlashExt},
     pac,
@@ -45,58 +46,10 @@ impl ClockSource {
     }
 }
 
-/// Why the MCU last came out of reset (RCC_CSR), most specific cause first.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, defmt::Format)]
-pub enum ResetCause {
-    /// Low-power management reset.
-    LowPower,
-    /// Window watchdog.
-    WindowWatchdog,
-    /// Independent watchdog.
-    IndependentWatchdog,
-    /// Software reset (SYSRESETREQ, e.g. after flashing).
-    Software,
-    /// Power-on / power-down reset (NRST is pulsed too, so this is checked before the pin).
-    PowerOn,
-    /// The NRST pin.
-    Pin,
-    /// No flag set.
-    Unknown,
-}
-
-impl ResetCause {
-    /// Field of the boot sentence.
-    pub const fn tag(self) -> &'static str {
-        match self {
-            ResetCause::LowPower => "LPWR",
-            ResetCause::WindowWatchdog => "WWDG",
-            ResetCause::IndependentWatchdog => "IWDG",
-            ResetCause::Software => "SFT",
-            ResetCause::PowerOn => "POR",
-            ResetCause::Pin => "PIN",
-            ResetCause::Unknown => "UNK",
-        }
-    }
-}
-
 /// Reads the reset flags and clears them (RMVF), so the next reset reports only its own cause.
+/// The decoding is [`ResetCause::from_csr`] (host-tested).
 pub fn take_reset_cause(rcc: &pac::RCC) -> ResetCause {
-    let csr = rcc.csr().read();
-    let cause = if csr.lpwrrstf().bit_is_set() {
-        ResetCause::LowPower
-    } else if csr.wwdgrstf().bit_is_set() {
-        ResetCause::WindowWatchdog
-    } else if csr.iwdgrstf().bit_is_set() {
-        ResetCause::IndependentWatchdog
-    } else if csr.sftrstf().bit_is_set() {
-        ResetCause::Software
-    } else if csr.porrstf().bit_is_set() {
-        ResetCause::PowerOn
-    } else if csr.pinrstf().bit_is_set() {
-        ResetCause::Pin
-    } else {
-        ResetCause::Unknown
-    };
+    let cause = ResetCause::from_csr(rcc.csr().read().bits());
     rcc.csr().modify(|_, w| w.rmvf().set_bit());
     cause
 }

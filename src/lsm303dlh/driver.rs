@@ -32,6 +32,12 @@ impl<I2C: I2c> Lsm303dlh<I2C> {
         self.i2c
     }
 
+    /// The bus, for tests that inject faults into it.
+    #[cfg(test)]
+    pub(crate) fn bus_mut(&mut self) -> &mut I2C {
+        &mut self.i2c
+    }
+
     /// The accelerometer scale the conversions use.
     pub fn accel_scale(&self) -> AccelScale {
         self.accel_scale

@@ -19,8 +19,9 @@ impl Status {
     /// Bit 17: the ADC delivered no frame since the previous cycle, or dropped frames (DMA
     /// overrun, or [`crate::adc::AdcMean::dropped`] > 0).
     pub const ADC_FAULT: Status = Status(1 << 17);
-    /// Bit 18: a gyro channel touched an ADC rail during the cycle
-    /// ([`crate::adc::GyroReading::axis_saturated`] from a rail).
+    /// Bit 18: the gyro conversion saturated this cycle: a gyro channel touched an ADC rail,
+    /// or a rate reached the full scale `gyro.range`
+    /// ([`crate::adc::GyroReading::saturated`]).
     pub const GYRO_RAIL: Status = Status(1 << 18);
     /// Bit 19: the depth channel touched an ADC rail during the cycle
     /// ([`crate::adc::DepthReading::at_rail`]): the depth is not trusted.

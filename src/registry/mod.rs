@@ -15,7 +15,9 @@
 //! ([`number::push_number`]); flash keeps the internal `f32` bits, so a save and a load are
 //! exact.
 
+mod decimal;
 pub mod number;
+mod slot;
 mod table;
 
 pub use table::SETTINGS;
@@ -122,10 +124,6 @@ pub struct Setting {
     pub min: f64,
     /// Largest valid value per component, user units.
     pub max: f64,
-    /// One-line description for the documentation.
-    pub help: &'static str,
-    get: fn(&PipelineSettings) -> Value,
-    set: fn(&mut PipelineSettings, Value),
 }
 
 impl core::fmt::Debug for Setting {
@@ -140,7 +138,15 @@ const DEG: f64 = 180.0 / core::f64::consts::PI;
 impl Setting {
     /// The current value (internal units).
     pub fn get(&self, s: &PipelineSettings) -> Value {
-        (self.get)(s)
+        // The accessor hands out a mutable slot: read it from a copy.
+        let mut copy = *s;
+        slot::slot(&mut copy, self.id).map_or(Value::Bool(false), |slot| slot.read())
+    }
+
+    /// One-line description for the documentation (kept out of the firmware's flash: only
+    /// the documentation and the host use it).
+    pub fn help(&self) -> &'static str {
+        table::HELP.iter().find(|(id, _)| *id == self.id).map_or("", |(_, h)| *h)
     }
 
     /// Store `v` (internal units). Values of another kind, or failing [`Setting::check`], are
@@ -149,8 +155,14 @@ impl Setting {
         if !self.check(&v) {
             return false;
         }
-        (self.set)(s, v);
-        true
+        match slot::slot(s, self.id) {
+            Some(slot) => {
+                slot.write(v);
+                table::after_write(s, self.id);
+                true
+            }
+            None => false,
+        }
     }
 
     /// True when `v` (internal units) has this setting's kind and is in range. Scaled values
@@ -352,7 +364,7 @@ impl Setting {
             ascii(&lo, nl),
             ascii(&hi, nh),
             default.body(),
-            self.help
+            self.help()
         )
     }
 }

@@ -1,56 +1,13 @@
-//! Numbers as text on the command line: a strict decimal parser and a 7-significant-digit
-//! writer (no `core::fmt` float formatting, so the host and the Cortex-M3 print the same
-//! bytes).
+//! Numbers as text on the command line: a strict decimal parser ([`parse_number`], in
+//! `decimal.rs`), an integer parser and a 7-significant-digit writer (no `core::fmt` float
+//! formatting, so the host and the Cortex-M3 print the same bytes).
 
 use crate::nmea::{NmeaError, Sentence};
 
 /// Significant digits printed by [`push_number`] (an `f32` holds about 7.2).
 pub const SIGNIFICANT_DIGITS: u32 = 7;
 
-/// Parse a decimal number: optional sign, digits with an optional `.`, optional exponent
-/// (`e`/`E`, optional sign, digits). `None` for anything else (`inf`, `nan`, hex, spaces,
-/// empty). A number too large for `f64` parses as infinite; the caller rejects it.
-pub fn parse_number(text: &str) -> Option<f64> {
-    let b = text.as_bytes();
-    let mut i = 0;
-    let at = |i: usize| b.get(i).copied();
-    if matches!(at(i), Some(b'+' | b'-')) {
-        i += 1;
-    }
-    let mut mantissa_digits = 0;
-    while matches!(at(i), Some(b'0'..=b'9')) {
-        i += 1;
-        mantissa_digits += 1;
-    }
-    if at(i) == Some(b'.') {
-        i += 1;
-        while matches!(at(i), Some(b'0'..=b'9')) {
-            i += 1;
-            mantissa_digits += 1;
-        }
-    }
-    if mantissa_digits == 0 {
-        return None;
-    }
-    if matches!(at(i), Some(b'e' | b'E')) {
-        i += 1;
-        if matches!(at(i), Some(b'+' | b'-')) {
-            i += 1;
-        }
-        let mut exp_digits = 0;
-        while matches!(at(i), Some(b'0'..=b'9')) {
-            i += 1;
-            exp_digits += 1;
-        }
-        if exp_digits == 0 {
-            return None;
-        }
-    }
-    if i != b.len() {
-        return None;
-    }
-    text.parse::<f64>().ok()
-}
+pub use super::decimal::parse_number;
 
 /// Parse an unsigned decimal integer (digits only, optional leading `+`, at most 9 digits).
 pub fn parse_uint(text: &str) -> Option<u32> {
@@ -58,7 +15,7 @@ pub fn parse_uint(text: &str) -> Option<u32> {
     if digits.is_empty() || digits.len() > 9 || !digits.bytes().all(|c| c.is_ascii_digit()) {
         return None;
     }
-    digits.parse::<u32>().ok()
+    Some(digits.bytes().fold(0u32, |n, c| n * 10 + u32::from(c - b'0')))
 }
 
 /// Write `v` with [`SIGNIFICANT_DIGITS`] significant digits, trailing zeros removed: plain

@@ -1,8 +1,8 @@
 //! The table itself. Ids are grouped by tens per section; an id is never reused.
 
-use ekf_core::Vec3;
-
-use super::{deg, Kind, Setting, Value};
+use super::slot::Slot;
+use super::{deg, Kind, Setting};
+use crate::pipeline::PipelineSettings;
 
 /// rad/s → °/s (and rad → °).
 const DEG: f64 = deg();
@@ -11,15 +11,9 @@ const DEG2: f64 = DEG * DEG;
 /// rad/s → °/h.
 const DEG_H: f64 = DEG * 3600.0;
 
-/// `x` as a smaller integer type, if it fits.
-fn narrow<T: TryFrom<u16>>(x: u16) -> Option<T> {
-    T::try_from(x).ok()
-}
-
-/// A scaled number field.
+/// A scaled number field (`f32`).
 macro_rules! num {
-    ($id:literal, $name:literal, $unit:literal, $scale:expr, $min:expr, $max:expr, $help:literal,
-     |$s:ident| $field:expr) => {
+    ($id:literal, $name:literal, $unit:literal, $scale:expr, $min:expr, $max:expr, $($rest:tt)*) => {
         Setting {
             id: $id,
             name: $name,
@@ -28,21 +22,13 @@ macro_rules! num {
             scale: $scale,
             min: $min,
             max: $max,
-            help: $help,
-            get: |$s| Value::F32($field),
-            set: |$s, v| {
-                if let Value::F32(x) = v {
-                    $field = x;
-                }
-            },
         }
     };
 }
 
-/// A scaled `Vec3` field.
+/// A scaled three-component field (`Vec3` or `[f32; 3]`).
 macro_rules! vec3 {
-    ($id:literal, $name:literal, $unit:literal, $scale:expr, $min:expr, $max:expr, $help:literal,
-     |$s:ident| $field:expr) => {
+    ($id:literal, $name:literal, $unit:literal, $scale:expr, $min:expr, $max:expr, $($rest:tt)*) => {
         Setting {
             id: $id,
             name: $name,
@@ -51,66 +37,20 @@ macro_rules! vec3 {
             scale: $scale,
             min: $min,
             max: $max,
-            help: $help,
-            get: |$s| Value::Vec3($field.to_array()),
-            set: |$s, v| {
-                if let Value::Vec3(x) = v {
-                    $field = Vec3::from_array(x);
-                }
-            },
-        }
-    };
-}
-
-/// A scaled `[f32; 3]` field.
-macro_rules! arr3 {
-    ($id:literal, $name:literal, $unit:literal, $scale:expr, $min:expr, $max:expr, $help:literal,
-     |$s:ident| $field:expr) => {
-        Setting {
-            id: $id,
-            name: $name,
-            kind: Kind::Vec3,
-            unit: $unit,
-            scale: $scale,
-            min: $min,
-            max: $max,
-            help: $help,
-            get: |$s| Value::Vec3($field),
-            set: |$s, v| {
-                if let Value::Vec3(x) = v {
-                    $field = x;
-                }
-            },
         }
     };
 }
 
 /// A `bool` field.
 macro_rules! flag {
-    ($id:literal, $name:literal, $help:literal, |$s:ident| $field:expr) => {
-        Setting {
-            id: $id,
-            name: $name,
-            kind: Kind::Bool,
-            unit: "",
-            scale: 1.0,
-            min: 0.0,
-            max: 1.0,
-            help: $help,
-            get: |$s| Value::Bool($field),
-            set: |$s, v| {
-                if let Value::Bool(x) = v {
-                    $field = x;
-                }
-            },
-        }
+    ($id:literal, $name:literal, $($rest:tt)*) => {
+        Setting { id: $id, name: $name, kind: Kind::Bool, unit: "", scale: 1.0, min: 0.0, max: 1.0 }
     };
 }
 
 /// An unsigned integer field (`u16` or `u8`; the range keeps `u8` fields in range).
 macro_rules! uint {
-    ($id:literal, $name:literal, $unit:literal, $min:expr, $max:expr, $help:literal,
-     |$s:ident| $field:expr) => {
+    ($id:literal, $name:literal, $unit:literal, $min:expr, $max:expr, $($rest:tt)*) => {
         Setting {
             id: $id,
             name: $name,
@@ -119,43 +59,70 @@ macro_rules! uint {
             scale: 1.0,
             min: $min,
             max: $max,
-            help: $help,
-            get: |$s| Value::U16(u16::from($field)),
-            set: |$s, v| {
-                if let Value::U16(x) = v {
-                    if let Some(x) = narrow(x) {
-                        $field = x;
-                    }
-                }
-            },
         }
     };
 }
 
 /// An axis-map field.
 macro_rules! axes {
-    ($id:literal, $name:literal, $help:literal, |$s:ident| $field:expr) => {
-        Setting {
-            id: $id,
-            name: $name,
-            kind: Kind::Axes,
-            unit: "",
-            scale: 1.0,
-            min: 0.0,
-            max: 0.0,
-            help: $help,
-            get: |$s| Value::Axes($field),
-            set: |$s, v| {
-                if let Value::Axes(x) = v {
-                    $field = x;
-                }
-            },
+    ($id:literal, $name:literal, $($rest:tt)*) => {
+        Setting { id: $id, name: $name, kind: Kind::Axes, unit: "", scale: 1.0, min: 0.0, max: 0.0 }
+    };
+}
+
+/// The storage of a row: its last tokens are `|s| <field path>`.
+macro_rules! slot_of {
+    ($settings:ident; |$s:ident| $field:expr) => {{
+        let $s = $settings;
+        Slot::from(&mut $field)
+    }};
+    ($settings:ident; $skip:tt $($rest:tt)*) => {
+        slot_of!($settings; $($rest)*)
+    };
+}
+
+/// The help text of a row: the literal before `|s| <field path>`.
+macro_rules! help_of {
+    ($help:literal, |$s:ident| $field:expr) => {
+        $help
+    };
+    ($skip:tt $($rest:tt)*) => {
+        help_of!($($rest)*)
+    };
+}
+
+/// Flash id of `adc.vref`.
+const ADC_VREF: u16 = 90;
+
+/// What a write to the setting `id` changes besides its slot: `adc.vref` is the reference of
+/// the depth channel and of the gyro conversion alike.
+pub(super) fn after_write(s: &mut PipelineSettings, id: u16) {
+    if id == ADC_VREF {
+        s.gyro.scale.vref_v = s.adc.vref_v;
+    }
+}
+
+/// The table from its rows: [`SETTINGS`], the help texts (only the documentation uses them, so
+/// they are not in the firmware) and the accessor [`slot`].
+macro_rules! settings_table {
+    ($($kind:ident!($id:literal, $($row:tt)*)),* $(,)?) => {
+        /// Every setting, in documentation order.
+        pub static SETTINGS: [Setting; [$($id),*].len()] = [$($kind!($id, $($row)*)),*];
+
+        /// `(id, help)` of every setting, in the order of [`SETTINGS`].
+        pub(super) static HELP: [(u16, &str); SETTINGS.len()] = [$(($id, help_of!($($row)*))),*];
+
+        /// The storage of the setting with id `id`.
+        pub(super) fn slot(settings: &mut PipelineSettings, id: u16) -> Option<Slot<'_>> {
+            Some(match id {
+                $($id => slot_of!(settings; $($row)*),)*
+                _ => return None,
+            })
         }
     };
 }
 
-/// Every setting, in documentation order.
-pub static SETTINGS: [Setting; 64] = [
+settings_table! {
     // Noise model.
     vec3!(
         1,
@@ -520,7 +487,7 @@ pub static SETTINGS: [Setting; 64] = [
         "static gyro bias subtracted after the axis map, body FRD (`GBIAS` sets it)",
         |s| s.conditioning.gyro_offset
     ),
-    arr3!(
+    vec3!(
         74,
         "accel_cal.x",
         "",
@@ -530,15 +497,15 @@ pub static SETTINGS: [Setting; 64] = [
         "row 1 of the calibration matrix X (weights of raw x), sensor axes",
         |s| s.conditioning.accel_calibration.x[0]
     ),
-    arr3!(75, "accel_cal.y", "", 1.0, -2.0, 2.0, "row 2 of X (weights of raw y)", |s| s
+    vec3!(75, "accel_cal.y", "", 1.0, -2.0, 2.0, "row 2 of X (weights of raw y)", |s| s
         .conditioning
         .accel_calibration
         .x[1]),
-    arr3!(76, "accel_cal.z", "", 1.0, -2.0, 2.0, "row 3 of X (weights of raw z)", |s| s
+    vec3!(76, "accel_cal.z", "", 1.0, -2.0, 2.0, "row 3 of X (weights of raw z)", |s| s
         .conditioning
         .accel_calibration
         .x[2]),
-    arr3!(77, "accel_cal.o", "g", 1.0, -1.0, 1.0, "row 4 of X: the offset, sensor axes", |s| s
+    vec3!(77, "accel_cal.o", "g", 1.0, -1.0, 1.0, "row 4 of X: the offset, sensor axes", |s| s
         .conditioning
         .accel_calibration
         .x[3]),
@@ -573,24 +540,18 @@ pub static SETTINGS: [Setting; 64] = [
         |s| s.conditioning.lever_arm.tangential_time_constant
     ),
     // ADC and gyro conversion.
-    Setting {
-        id: 90,
-        name: "adc.vref",
-        kind: Kind::F32,
-        unit: "V",
-        scale: 1.0,
-        min: 1.0,
-        max: 5.0,
-        help: "ADC reference voltage (gyro and depth channels)",
-        get: |s| Value::F32(s.adc.vref_v),
-        set: |s, v| {
-            if let Value::F32(x) = v {
-                s.adc.vref_v = x;
-                s.gyro.scale.vref_v = x;
-            }
-        },
-    },
-    arr3!(
+    // Also the gyro conversion's reference: see `after_write`.
+    num!(
+        90,
+        "adc.vref",
+        "V",
+        1.0,
+        1.0,
+        5.0,
+        "ADC reference voltage (gyro and depth channels)",
+        |s| s.adc.vref_v
+    ),
+    vec3!(
         91,
         "gyro.sensitivity",
         "mV/(deg/s)",
@@ -658,4 +619,4 @@ pub static SETTINGS: [Setting; 64] = [
         .output_rate_hz),
     flag!(112, "output.prdid", "send `$PRDID`", |s| s.sentences.prdid),
     flag!(113, "output.pinah", "send `$PINAH`", |s| s.sentences.pinah),
-];
+}

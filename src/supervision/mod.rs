@@ -1,0 +1,13 @@
+//! Fault handling decisions, host-tested; the RTIC application (`src/main.rs`, `src/app/`)
+//! only carries them out on the hardware:
+//! - [`reset_cause`]: why the MCU last reset, from the RCC_CSR flags (reported at boot);
+//! - [`led`]: which LED pattern (init, running, fault) for what the filter reported;
+//! - [`watchdog`]: whether a filter cycle was healthy enough to feed the independent watchdog;
+//! - [`imu`]: the LSM303DLH's read schedule with bounded retries, re-configuration after
+//!   failures and stuck-data detection.
+
+pub mod imu;
+pub mod led;
+pub mod reset_cause;
+pub mod stuck;
+pub mod watchdog;
