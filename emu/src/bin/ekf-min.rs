@@ -6,6 +6,10 @@
 
 use core::hint::black_box;
 
+// The package's library carries build.rs's native link of libgcc's soft-float (cargo passes
+// `-l` to a package's library only): linked like the firmware's. Its code is not used here.
+use ekf_emu as _;
+
 use ekf_core::{settings::Settings, AttitudeFilter, Ekf, ImuSample, Vec3};
 
 fn step(ekf: &mut Ekf) {
