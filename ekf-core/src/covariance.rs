@@ -169,10 +169,18 @@ impl Cov6 {
         const ALL: [bool; N] = [true; N];
         const NO_YAW: [bool; N] = [true, true, false, true, true, true];
         match yaw {
-            YawRow::Free => self.update_rows(t, ALL, ALL),
-            YawRow::Frozen => self.update_rows(t, NO_YAW, ALL),
+            YawRow::Free => self.update_tracked(t, ALL),
+            YawRow::Frozen => self.update_tracked(t, NO_YAW),
             YawRow::Untracked => self.update_rows(t, NO_YAW, NO_YAW),
         }
+    }
+
+    /// The tilt update with the yaw row tracked (magnetometer on or yaw-split off): one
+    /// out-of-line copy for both gain patterns, to keep the firmware's flash down; the default
+    /// configuration's update is the inlined `Untracked` one.
+    #[inline(never)]
+    fn update_tracked(&mut self, t: &TiltInnovation, gain: [bool; N]) -> [f32; N] {
+        self.update_rows(t, gain, [true; N])
     }
 
     /// [`Cov6::update_tilt`]: rows with `gain[i]` are corrected; elements `(i, l)` with both
@@ -181,8 +189,9 @@ impl Cov6 {
     #[inline(always)]
     fn update_rows(&mut self, t: &TiltInnovation, gain: [bool; N], rows: [bool; N]) -> [f32; N] {
         let mut dx = [0.0f32; N];
-        for (j, z, inv) in [(0, t.z[0], t.s_inv[0]), (1, t.z2, t.s_inv[1])] {
+        for j in 0..2 {
             let first = j == 0;
+            let (z, inv) = if first { (t.z[0], t.s_inv[0]) } else { (t.z2, t.s_inv[1]) };
             let p = &mut self.m;
             // c = P e_j, g = c / s; P' = P − g cᵀ except where both indices are frozen
             // (Joseph form with the gain restricted to the free rows).

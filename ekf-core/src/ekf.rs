@@ -106,6 +106,8 @@ impl Ekf {
         self.rest.at_rest()
     }
 
+    #[cold]
+    #[inline(never)]
     fn initial_cov(s: &Settings) -> Cov6 {
         let t = s.ekf.initial_tilt_sigma * s.ekf.initial_tilt_sigma;
         let y = s.ekf.initial_yaw_sigma * s.ekf.initial_yaw_sigma;
@@ -113,6 +115,8 @@ impl Ekf {
         Cov6::diagonal([t, t, y, b, b, b])
     }
 
+    #[cold]
+    #[inline(never)]
     fn start(&mut self, q: Quaternion, bias: Vec3) {
         self.q = q.normalized();
         self.bias = if bias.is_finite() { bias } else { self.settings.init.gyro_bias };
@@ -136,6 +140,7 @@ impl Ekf {
     }
 
     /// Rotate the attitude about NED z by `angle` rad (a pure yaw change).
+    #[inline(never)]
     fn rotate_yaw(&mut self, angle: f32) {
         self.q = (Quaternion::from_yaw(angle) * self.q).normalized();
     }
@@ -251,6 +256,7 @@ impl Ekf {
     }
 
     /// Magnetometer heading update: only yaw (and the gyro biases) move.
+    #[inline(never)] // off by default; kept out of the hot path's code
     fn mag_update(&mut self, m: Vec3) -> Flags {
         let ms = self.settings.mag;
         let n = m.norm();
@@ -282,6 +288,7 @@ impl Ekf {
     }
 
     /// End of a rest block: re-estimate the bias and hold yaw while at rest.
+    #[inline(never)] // once per rest-detection block
     fn rest_block(&mut self, b: &RestBlock) -> Flags {
         let yaw = Euler::yaw_of(self.q);
         let moved = mathf::wrap_pi(yaw - self.block_yaw - self.external_yaw);

@@ -130,6 +130,7 @@ impl Initializer {
 
 /// Feed one checked sample to the window; only accelerometer samples that pass the gate's
 /// magnitude, jump and hold-off checks enter the tilt average.
+#[inline(never)] // the first seconds only: out of the update's hot code
 pub fn feed(init: &mut Initializer, gate: &mut AccelGate, c: &Checked) -> InitStep {
     let a = c.accel_g.and_then(|(a, n)| match gate.pre_check(c.dt_rate, a, n) {
         PreCheck::Pass { .. } => Some(a),
