@@ -385,7 +385,10 @@ impl Device {
                 }
                 let setting = registry::find("depth.surface_pressure").ok_or(Reason::Range)?;
                 if !setting.check(&setting.get(&new)) {
-                    return Err(Fail(Reason::Range, Detail::Range(setting.min, setting.max)));
+                    return Err(Fail(
+                        Reason::Range,
+                        Detail::Range(setting.range().0, setting.range().1),
+                    ));
                 }
                 let action = self.commit(new);
                 let mut out = Out::ok(name);
@@ -561,7 +564,8 @@ impl Device {
         let mut out = CycleOutput::default();
         let dt = inputs.dt;
         if dt.is_finite() && dt > 0.0 {
-            self.clock_us = self.clock_us.wrapping_add((f64::from(dt) * 1e6 + 0.5) as u64);
+            // In `f32` (exact to the µs for any cycle under 16 s).
+            self.clock_us = self.clock_us.wrapping_add((dt * 1e6 + 0.5) as u64);
             self.depth_age_s += dt;
         }
         let s = self.settings;
@@ -665,7 +669,7 @@ fn parse_in(text: &str, (lo, hi): (f64, f64)) -> Result<f64, Fail> {
 
 fn range_detail(s: &Setting) -> Detail {
     match s.kind {
-        Kind::F32 | Kind::Vec3 | Kind::U16 => Detail::Range(s.min, s.max),
+        Kind::F32 | Kind::Vec3 | Kind::U16 => Detail::Range(s.range().0, s.range().1),
         Kind::Bool | Kind::Axes => Detail::None,
     }
 }
