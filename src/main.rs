@@ -22,8 +22,8 @@
 //! The independent watchdog is fed only at the end of a healthy filter cycle (see `filter`).
 //!
 //! Nothing on the running path unwraps or panics: sensor and bus errors become status bits
-//! (`$PINAH` bits 16–19) and LED patterns. `expect` appears only in `init`, for programming
-//! errors (a task spawned twice, an impossible timer rate).
+//! (`$PINAH` bits 16–19) and LED patterns. `panic!` appears only in `init`, for programming
+//! errors (a task spawned twice, an impossible timer rate), with plain messages (no `core::fmt`).
 //!
 //! On the host this builds to a stub that says how to build the firmware.
 #![cfg_attr(target_os = "none", no_std, no_main)]
@@ -296,9 +296,14 @@ mod firmware {
             Err(_) => defmt::error!("boot sentence does not fit"),
         }
 
-        // Expect: each task is spawned exactly once, here; an error is a programming error.
-        filter::spawn().expect("filter task spawned twice");
-        blink::spawn().expect("blink task spawned twice");
+        // Each task is spawned exactly once, here; an error is a programming error. (`panic!`
+        // with a plain message rather than `expect`, which formats the error with `core::fmt`.)
+        if filter::spawn().is_err() {
+            panic!("filter task spawned twice");
+        }
+        if blink::spawn().is_err() {
+            panic!("blink task spawned twice");
+        }
 
         (
             Shared {

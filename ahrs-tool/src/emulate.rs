@@ -40,7 +40,8 @@ pub struct Options {
     /// Simulator seed.
     pub seed: u64,
     /// Put the simulated board into the position named by every `ACAL,<pos>` command seen
-    /// (a cooperative operator), back to the scenario on `ACAL,FIT` / `ACAL,CLEAR`.
+    /// (a cooperative operator), back to the scenario on any other command (`ACAL,CLEAR`,
+    /// the `SET`s of the fit).
     pub follow_acal: bool,
 }
 
@@ -233,22 +234,14 @@ impl Firmware {
         let LineEvent::Line(line) = event else { return };
         let Ok(body) = nmea::verify(line.as_bytes()) else { return };
         let mut f = body.split(',');
-        if !f.next().is_some_and(|a| a.eq_ignore_ascii_case("PINAC"))
-            || !f.next().is_some_and(|v| v.eq_ignore_ascii_case("ACAL"))
-        {
+        if !f.next().is_some_and(|a| a.eq_ignore_ascii_case("PINAC")) {
             return;
         }
-        match f.next() {
-            Some(p) if p.eq_ignore_ascii_case("FIT") || p.eq_ignore_ascii_case("CLEAR") => {
-                self.board.pose = None
-            }
-            Some(p) => {
-                if let Some(pos) = position_by_name(p) {
-                    self.board.pose = Some(pos.reference_g());
-                }
-            }
-            None => {}
-        }
+        // `ACAL,<position>` holds the board there; any other command (`ACAL,CLEAR`, the `SET`s
+        // of the fitted calibration) puts it back.
+        let acal = f.next().is_some_and(|v| v.eq_ignore_ascii_case("ACAL"));
+        self.board.pose =
+            f.next().filter(|_| acal).and_then(position_by_name).map(|p| p.reference_g());
     }
 
     fn receive(&mut self, port: &mut File) -> io::Result<()> {

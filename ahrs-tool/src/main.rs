@@ -20,6 +20,8 @@ use std::{
 };
 
 use clap::{Parser, Subcommand};
+use ekf_core::accel_calibration::{Position, SixPositionFit};
+use ekf_core::Vec3;
 use host_tests::trace::{TraceColumns, TraceWriter};
 use inemo_ahrs::command::POSITION_NAMES;
 use link::{command_body, Link, Reply};
@@ -99,7 +101,7 @@ enum Cmd {
         #[arg(long, default_value_t = 1)]
         seed: u64,
         /// Test helper: hold the simulated board in the position of each `ACAL,<position>`
-        /// command received (back to the scenario on `ACAL,FIT` / `ACAL,CLEAR`).
+        /// command received (back to the scenario on any other command).
         #[arg(long)]
         follow_acal: bool,
     },
@@ -346,7 +348,9 @@ fn calibrate(port: &str, seconds: f64) -> Result<(), String> {
     let mut input = stdin.lock();
     println!("Six-position accelerometer calibration on {port}.");
     expect_ok(&mut link, "ACAL,CLEAR")?;
-    for pos in POSITION_NAMES {
+    // The device measures the six means; the least-squares fit of X is done here.
+    let mut fit = SixPositionFit::new();
+    for (pos, position) in POSITION_NAMES.into_iter().zip(Position::ALL) {
         loop {
             let prompt = format!(
                 "Position {pos}: {}. Hold it still and press Enter (q to quit): ",
@@ -373,17 +377,25 @@ fn calibrate(port: &str, seconds: f64) -> Result<(), String> {
                 let f = &done.fields;
                 let g = |i: usize| f.get(i).map(String::as_str).unwrap_or("?");
                 println!("  {pos}: mean ({}, {}, {}) g", g(2), g(3), g(4));
+                let mean: Vec<f32> = (2..5).filter_map(|i| g(i).parse().ok()).collect();
+                let [x, y, z] = mean[..] else {
+                    return Err(format!("unexpected reply {}", done.line));
+                };
+                fit.add_position(position, Vec3::new(x, y, z));
                 break;
             }
             println!("  {pos} failed: {} — try again", done.fields.first().map_or("?", |s| s));
         }
     }
-    let fit =
-        link.wait_reply_after_send("ACAL,FIT").map_err(io_err)?.ok_or("no reply to ACAL,FIT")?;
-    if !fit.ok {
-        return Err(format!("fit failed: {}", fit.line));
+    let cal = fit.solve().map_err(|e| format!("fit failed: {e}"))?;
+    let rms = fit.rms_residual_g(&cal).unwrap_or(f32::NAN);
+    // X row by row (`accel_cal.x`, `.y`, `.z`: dimensionless; `.o`: the offset, g).
+    for (row, name) in cal.x.iter().zip(["x", "y", "z", "o"]) {
+        expect_ok(
+            &mut link,
+            &format!("SET,accel_cal.{name},{:e},{:e},{:e}", row[0], row[1], row[2]),
+        )?;
     }
-    let rms = fit.fields.get(1).cloned().unwrap_or_default();
     println!("Fit done: rms residual {rms} g (accel_cal.* set, not saved).");
     let answer = ask(&mut input, "Save to flash? [y/N] ").unwrap_or_default();
     if answer.eq_ignore_ascii_case("y") || answer.eq_ignore_ascii_case("yes") {
@@ -393,15 +405,6 @@ fn calibrate(port: &str, seconds: f64) -> Result<(), String> {
         println!("Not saved: the calibration is in use until reset; SAVE keeps it.");
     }
     Ok(())
-}
-
-impl Link {
-    /// `ACAL,FIT`: its reply has the verb `ACAL` and first field `FIT`.
-    fn wait_reply_after_send(&mut self, body: &str) -> io::Result<Option<Reply>> {
-        self.send_command(body)?;
-        let deadline = Instant::now() + Duration::from_secs(3);
-        self.wait_reply("ACAL", deadline, |r| !r.ok || r.fields.first().is_some_and(|f| f == "FIT"))
-    }
 }
 
 fn emulator(pty: bool, port: Option<PathBuf>, opts: &emulate::Options) -> Result<(), String> {

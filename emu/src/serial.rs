@@ -10,8 +10,8 @@
 //!   `Pipeline::apply_settings`, `SetYaw` → `set_yaw`).
 //! - A cooperative operator for the six-position calibration: when a command `ACAL,<position>`
 //!   passes, the board is held still in that position (gravity along the named LSM303DLH
-//!   axis, a little noise, no rotation) until `ACAL,FIT` or `ACAL,CLEAR`. The trace runs on
-//!   meanwhile, unseen: record `n` always feeds cycle `n` after boot (modulo its length).
+//!   axis, a little noise, no rotation) until any other command (`ACAL,CLEAR`, the `SET`s of
+//!   the fit). The trace runs on meanwhile, unseen: record `n` always feeds cycle `n` after boot (modulo its length).
 
 use ekf_core::{AttitudeFilter as _, Vec3};
 use inemo_ahrs::{
@@ -131,22 +131,13 @@ impl<'f, F: Flash> SerialFirmware<'f, F> {
         let LineEvent::Line(line) = event else { return };
         let Ok(body) = nmea::verify(line.as_bytes()) else { return };
         let mut f = body.split(',');
-        if !f.next().is_some_and(|a| a.eq_ignore_ascii_case("PINAC"))
-            || !f.next().is_some_and(|v| v.eq_ignore_ascii_case("ACAL"))
-        {
+        if !f.next().is_some_and(|a| a.eq_ignore_ascii_case("PINAC")) {
             return;
         }
-        match f.next() {
-            Some(p) if p.eq_ignore_ascii_case("FIT") || p.eq_ignore_ascii_case("CLEAR") => {
-                self.pose = None
-            }
-            Some(p) => {
-                if let Some(pos) = position_by_name(p) {
-                    self.pose = Some(pos.reference_g());
-                }
-            }
-            None => {}
-        }
+        // `ACAL,<position>` holds the board there; any other command (`ACAL,CLEAR`, the `SET`s
+        // of the fitted calibration) puts it back.
+        let acal = f.next().is_some_and(|v| v.eq_ignore_ascii_case("ACAL"));
+        self.pose = f.next().filter(|_| acal).and_then(position_by_name).map(|p| p.reference_g());
     }
 
     /// Approximately normal noise, zero mean, standard deviation `sigma` (sum of four

@@ -137,9 +137,12 @@ pub fn start(
     let mut timer = Timer::new(tim3, rcc);
     timer.set_master_mode(pac::tim2::cr2::MMS::Update);
     let mut trigger = timer.counter_hz();
-    // Expect: a programming error only (the rate fits TIM3's 16-bit prescaler and reload at
-    // every clock this firmware configures).
-    trigger.start(Hertz::from_raw(FRAME_HZ)).expect("TIM3 cannot run at the ADC frame rate");
+    // A programming error only (the rate fits TIM3's 16-bit prescaler and reload at every
+    // clock this firmware configures). A `panic!` with a plain message: `expect` would
+    // format the error with `core::fmt`.
+    if trigger.start(Hertz::from_raw(FRAME_HZ)).is_err() {
+        panic!("TIM3 cannot run at the ADC frame rate");
+    }
 
     AdcScan { dma, buf, calibrated, _trigger: trigger }
 }

@@ -1,5 +1,5 @@
 //! The panic handler. Nothing on the running path panics (the library has no reachable panic
-//! on the filter's path, `init` only `expect`s programming errors); should one happen, this logs
+//! on the filter's path, `init` only panics on programming errors); should one happen, this logs
 //! where over defmt and stops the core with a HardFault, which a debugger (`probe-rs run`)
 //! reports. Without a debugger the watchdog then resets the MCU (reset cause `IWDG`).
 //!

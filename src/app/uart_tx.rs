@@ -18,6 +18,7 @@ pub const TX_BUF_LEN: usize = 3 * MAX_SENTENCE_LEN;
 /// Buffer for one batch: the two sentences of a cycle at their longest.
 #[cfg(not(feature = "serial-commands"))]
 pub const TX_BUF_LEN: usize = 2 * MAX_SENTENCE_LEN;
+const _: () = assert!(TX_BUF_LEN <= u16::MAX as usize, "DMA transfer length is 16 bits");
 
 /// The transmitter and its counters.
 pub struct DmaTx {
@@ -133,7 +134,9 @@ impl Batch<'_> {
         let ch = &mut tx.dma.channel;
         ch.set_peripheral_address(tx.dr, false);
         ch.set_memory_address(tx.buf.as_ptr() as u32, true);
-        ch.set_transfer_length(len);
+        // The HAL's `set_transfer_length` unwraps a `u16::try_from` (and pulls `core::fmt` in);
+        // `len` ≤ TX_BUF_LEN < 2^16 (asserted at compile time).
+        ch.ch().ndtr().write(|w| w.ndt().set(len as u16));
         compiler_fence(Ordering::Release);
         ch.ch().cr().modify(|_, w| {
             w.mem2mem().clear_bit();

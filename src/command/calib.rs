@@ -8,21 +8,21 @@ use ekf_core::mathf;
 
 use crate::pipeline::PipelineSettings;
 
-/// Running mean and variance of three channels (Welford, `f64`).
+/// Running mean and variance of three channels (Welford, `f32`: no `f64` soft-float on the
+/// target; a mean over 10^5 samples keeps about 6 digits, far below the noise).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Stats3 {
     n: u32,
-    mean: [f64; 3],
-    m2: [f64; 3],
+    mean: [f32; 3],
+    m2: [f32; 3],
 }
 
 impl Stats3 {
     /// Add one sample.
     pub fn push(&mut self, v: [f32; 3]) {
         self.n = self.n.saturating_add(1);
-        let n = f64::from(self.n);
+        let n = self.n as f32;
         for ((m, s), &x) in self.mean.iter_mut().zip(self.m2.iter_mut()).zip(v.iter()) {
-            let x = f64::from(x);
             let d = x - *m;
             *m += d / n;
             *s += d * (x - *m);
@@ -36,27 +36,27 @@ impl Stats3 {
 
     /// Mean per channel.
     pub fn mean(&self) -> [f32; 3] {
-        self.mean.map(|m| m as f32)
+        self.mean
     }
 
     /// Sample variance per channel (0 with fewer than two samples).
-    pub fn variance(&self) -> [f64; 3] {
-        let d = f64::from(self.n.saturating_sub(1).max(1));
+    pub fn variance(&self) -> [f32; 3] {
+        let d = self.n.saturating_sub(1).max(1) as f32;
         self.m2.map(|s| if self.n > 1 { s / d } else { 0.0 })
     }
 
     /// True when `v` is more than `k` times `sigma[i]` from the mean on some channel (after
     /// at least 10 samples).
-    fn outlier(&self, v: [f32; 3], sigma: [f64; 3], k: f64) -> bool {
+    fn outlier(&self, v: [f32; 3], sigma: [f32; 3], k: f32) -> bool {
         self.n >= 10
             && v.iter().zip(self.mean.iter()).zip(sigma.iter()).any(|((&x, &m), &s)| {
-                let d = f64::from(x) - m;
+                let d = x - m;
                 !(d.abs() <= k * s)
             })
     }
 
     /// True when every channel's standard deviation is within `sigma`.
-    fn within(&self, sigma: [f64; 3]) -> bool {
+    fn within(&self, sigma: [f32; 3]) -> bool {
         self.variance().iter().zip(sigma.iter()).all(|(&v, &s)| v <= s * s)
     }
 }
@@ -77,28 +77,25 @@ pub enum CalEnd {
 }
 
 /// A sample further than this many allowed standard deviations from the mean is motion.
-const OUTLIER_SIGMAS: f64 = 8.0;
+const OUTLIER_SIGMAS: f32 = 8.0;
 /// Smallest allowed gyro standard deviation, rad/s (0.01 °/s), whatever the noise settings.
-const GYRO_SIGMA_FLOOR: f64 = 0.01 * core::f64::consts::PI / 180.0;
+const GYRO_SIGMA_FLOOR: f32 = 0.01 * core::f32::consts::PI / 180.0;
 /// Smallest allowed accelerometer standard deviation, g.
-const ACCEL_SIGMA_FLOOR: f64 = 0.002;
+const ACCEL_SIGMA_FLOOR: f32 = 0.002;
 
 /// Allowed gyro standard deviation per body axis, rad/s: `sqrt(rest.gyro_var_factor ·
 /// noise.gyro_var · filter_rate / noise.gyro_ref_rate)`, at least 0.01 °/s.
-pub fn gyro_sigma(s: &PipelineSettings) -> [f64; 3] {
+pub fn gyro_sigma(s: &PipelineSettings) -> [f32; 3] {
     let n = &s.filter.noise;
-    let rate_ratio = f64::from(s.filter_rate_hz.max(1)) / f64::from(n.gyro_ref_rate_hz.max(1e-3));
-    let factor = f64::from(s.filter.rest.gyro_var_factor);
-    n.gyro_var.to_array().map(|v| {
-        let sd = mathf::sqrt((factor * f64::from(v) * rate_ratio) as f32);
-        f64::from(sd).max(GYRO_SIGMA_FLOOR)
-    })
+    let rate_ratio = f32::from(s.filter_rate_hz.max(1)) / n.gyro_ref_rate_hz.max(1e-3);
+    let factor = s.filter.rest.gyro_var_factor;
+    n.gyro_var.to_array().map(|v| mathf::sqrt(factor * v * rate_ratio).max(GYRO_SIGMA_FLOOR))
 }
 
 /// Allowed accelerometer standard deviation per axis, g: `rest.accel_std_max`, at least
 /// 0.002 g.
-pub fn accel_sigma(s: &PipelineSettings) -> [f64; 3] {
-    [f64::from(s.filter.rest.accel_std_max_g).max(ACCEL_SIGMA_FLOOR); 3]
+pub fn accel_sigma(s: &PipelineSettings) -> [f32; 3] {
+    [s.filter.rest.accel_std_max_g.max(ACCEL_SIGMA_FLOOR); 3]
 }
 
 /// Static gyro-bias calibration: the mean body-frame gyro (axis map applied, offset not

@@ -1,6 +1,5 @@
 //! The device state and the command executor.
 
-use ekf_core::accel_calibration::SixPositionFit;
 use ekf_core::{mathf, ImuSample};
 
 use super::calib::{self, AccelPositionCal, CalEnd, GyroBiasCal};
@@ -172,7 +171,9 @@ pub struct Device {
     raw: bool,
     gbias: Option<GyroBiasCal>,
     acal: Option<AccelPositionCal>,
-    fit: SixPositionFit,
+    /// The accelerometer positions collected since boot or `ACAL,CLEAR`: bit i =
+    /// `Position::ALL[i]` (the means went out in the `DONE` replies; the host fits X).
+    acal_seen: u8,
     depth: Option<DepthReading>,
     depth_age_s: f32,
     clock_us: u64,
@@ -194,7 +195,7 @@ impl Device {
             raw: false,
             gbias: None,
             acal: None,
-            fit: SixPositionFit::new(),
+            acal_seen: 0,
             depth: None,
             depth_age_s: f32::INFINITY,
             clock_us: 0,
@@ -384,7 +385,10 @@ impl Device {
                 }
                 let setting = registry::find("depth.surface_pressure").ok_or(Reason::Range)?;
                 if !setting.check(&setting.get(&new)) {
-                    return Err(Fail(Reason::Range, Detail::Range(setting.min, setting.max)));
+                    return Err(Fail(
+                        Reason::Range,
+                        Detail::Range(setting.range().0, setting.range().1),
+                    ));
                 }
                 let action = self.commit(new);
                 let mut out = Out::ok(name);
@@ -478,50 +482,26 @@ impl Device {
                     cause.len() <= 16 && cause.bytes().all(|b| nmea::is_body_byte(b) && b != b',');
                 out.field(if printable { cause } else { "?" });
                 out.hex(u32::from(self.status_flags()), 4);
-                let seen = self.fit.positions_seen();
-                let mask = seen.iter().enumerate().fold(0u32, |m, (i, s)| m | (u32::from(*s) << i));
-                out.hex(mask, 2);
+                out.hex(u32::from(self.acal_seen), 2);
                 Ok((out, None))
             }
         }
     }
 
-    /// `ACAL,<position>[,<s>]`, `ACAL,FIT`, `ACAL,CLEAR`.
+    /// `ACAL,<position>[,<s>]`, `ACAL,CLEAR`. (The fit of X from the six means is the host's:
+    /// `ahrs-tool calibrate` sets `accel_cal.*` with `SET`.)
     fn acal_command(&mut self, args: &[&str]) -> CmdResult {
         let name = Verb::Acal.name();
         let first = args.first().copied().ok_or(Reason::Args)?;
-        if first.eq_ignore_ascii_case("FIT") || first.eq_ignore_ascii_case("CLEAR") {
+        if first.eq_ignore_ascii_case("CLEAR") {
             if args.len() != 1 {
                 return Err(Reason::Args.into());
             }
+            self.acal_seen = 0;
+            self.acal = None;
             let mut out = Out::ok(name);
-            if first.eq_ignore_ascii_case("CLEAR") {
-                self.fit.reset();
-                self.acal = None;
-                out.field("CLEAR");
-                return Ok((out, None));
-            }
-            let cal = self.fit.solve().map_err(|e| match e {
-                ekf_core::accel_calibration::FitError::TooFewSamples { .. }
-                | ekf_core::accel_calibration::FitError::MissingPositions { .. } => {
-                    let seen = self.fit.positions_seen().iter().filter(|s| **s).count();
-                    Fail(Reason::MissingPositions, Detail::Count(seen as u32))
-                }
-                _ => Fail::from(Reason::IllConditioned),
-            })?;
-            let mut new = self.settings;
-            new.conditioning.accel_calibration = cal;
-            for n in ["accel_cal.x", "accel_cal.y", "accel_cal.z", "accel_cal.o"] {
-                let s = registry::find(n).ok_or(Reason::Range)?;
-                if !s.check(&s.get(&new)) {
-                    return Err(Fail(Reason::Range, Detail::Range(s.min, s.max)));
-                }
-            }
-            let rms = self.fit.rms_residual_g(&cal).unwrap_or(f32::NAN);
-            let action = self.commit(new);
-            out.field("FIT");
-            out.num(f64::from(rms));
-            return Ok((out, action));
+            out.field("CLEAR");
+            return Ok((out, None));
         }
         let position = calib::position_by_name(first).ok_or(Reason::Type)?;
         let duration = match args.len() {
@@ -584,7 +564,8 @@ impl Device {
         let mut out = CycleOutput::default();
         let dt = inputs.dt;
         if dt.is_finite() && dt > 0.0 {
-            self.clock_us = self.clock_us.wrapping_add((f64::from(dt) * 1e6 + 0.5) as u64);
+            // In `f32` (exact to the µs for any cycle under 16 s).
+            self.clock_us = self.clock_us.wrapping_add((dt * 1e6 + 0.5) as u64);
             self.depth_age_s += dt;
         }
         let s = self.settings;
@@ -638,14 +619,14 @@ impl Device {
             let reply = match end {
                 CalEnd::Running => None,
                 CalEnd::Done(mean) => {
-                    self.fit.add_position(cal.position, ekf_core::Vec3::from_array(mean));
+                    self.acal_seen |= 1 << cal.position.index();
                     let mut o = Out::ok(Verb::Acal.name());
                     o.field("DONE");
                     o.field(calib::position_name(cal.position));
                     for m in mean {
                         o.num(f64::from(m));
                     }
-                    o.uint(self.fit.positions_seen().iter().filter(|s| **s).count() as u64);
+                    o.uint(u64::from(self.acal_seen.count_ones()));
                     Some(o.finish())
                 }
                 other => Some(Out::err(Verb::Acal.name(), end_reason(other), Detail::None)),
@@ -688,7 +669,7 @@ fn parse_in(text: &str, (lo, hi): (f64, f64)) -> Result<f64, Fail> {
 
 fn range_detail(s: &Setting) -> Detail {
     match s.kind {
-        Kind::F32 | Kind::Vec3 | Kind::U16 => Detail::Range(s.min, s.max),
+        Kind::F32 | Kind::Vec3 | Kind::U16 => Detail::Range(s.range().0, s.range().1),
         Kind::Bool | Kind::Axes => Detail::None,
     }
 }

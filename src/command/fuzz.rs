@@ -104,7 +104,6 @@ fn corpus() -> Vec<String> {
         "PINAC,ZERO",
         "PINAC,GBIAS,1",
         "PINAC,ACAL,ZUP,0.5",
-        "PINAC,ACAL,FIT",
         "PINAC,ACAL,CLEAR",
         "PINAC,ABORT",
         "PINAC,RATE,5",

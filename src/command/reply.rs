@@ -34,10 +34,6 @@ pub enum Reason {
     Sensor,
     /// The accelerometer did not point along the requested position.
     Position,
-    /// `ACAL,FIT` before all six positions were measured.
-    MissingPositions,
-    /// `ACAL,FIT`: the positions do not determine the calibration.
-    IllConditioned,
     /// Flash erase, program or verification failed (the previous record is intact).
     Flash,
     /// `LOAD`: no valid record in flash (settings unchanged).
@@ -64,8 +60,6 @@ impl Reason {
             Reason::Motion => "motion",
             Reason::Sensor => "sensor",
             Reason::Position => "position",
-            Reason::MissingPositions => "missing-positions",
-            Reason::IllConditioned => "ill-conditioned",
             Reason::Flash => "flash",
             Reason::NoRecord => "no-record",
             Reason::TooLarge => "too-large",
@@ -73,7 +67,7 @@ impl Reason {
     }
 
     /// Every reason, for documentation checks.
-    pub const ALL: [Reason; 19] = [
+    pub const ALL: [Reason; 17] = [
         Reason::Checksum,
         Reason::Format,
         Reason::TooLong,
@@ -88,8 +82,6 @@ impl Reason {
         Reason::Motion,
         Reason::Sensor,
         Reason::Position,
-        Reason::MissingPositions,
-        Reason::IllConditioned,
         Reason::Flash,
         Reason::NoRecord,
         Reason::TooLarge,
@@ -103,8 +95,7 @@ pub enum Detail {
     None,
     /// The valid range: `,<min>,<max>`.
     Range(f64, f64),
-    /// A count: the expected number of value fields (`args`), positions measured so far
-    /// (`missing-positions`).
+    /// A count: the expected number of value fields (`args`).
     Count(u32),
     /// The expected type (`type`): `f32`, `f32x3`, `bool`, `u16`, `axes`.
     Kind(&'static str),

@@ -199,9 +199,10 @@ fn every_error_names_the_problem_and_changes_nothing() {
         (cmd("PINAC,GBIAS"), "PINAR,ERR,GBIAS,args"),
         (cmd("PINAC,ACAL,UP"), "PINAR,ERR,ACAL,type"),
         (cmd("PINAC,ACAL,XUP,100"), "PINAR,ERR,ACAL,range,0.5,60"),
-        (cmd("PINAC,ACAL,FIT,1"), "PINAR,ERR,ACAL,args"),
+        (cmd("PINAC,ACAL,CLEAR,1"), "PINAR,ERR,ACAL,args"),
         (cmd("PINAC,ACAL"), "PINAR,ERR,ACAL,args"),
-        (cmd("PINAC,ACAL,FIT"), "PINAR,ERR,ACAL,missing-positions,0"),
+        // The fit of X is the host's (`ahrs-tool calibrate`), not a device command.
+        (cmd("PINAC,ACAL,FIT"), "PINAR,ERR,ACAL,type"),
         (cmd("PINAC,ABORT"), "PINAR,ERR,ABORT,not-running"),
         (cmd("PINAC,LOAD"), "PINAR,ERR,LOAD,no-record"),
         (cmd("PINAC,LIST,x"), "PINAR,ERR,LIST,type"),
@@ -390,6 +391,7 @@ fn six_position_accelerometer_calibration() {
     let mut d = fresh();
     let mut f = SimFlash::new();
     let mut n = Noise(3);
+    let mut fit = ekf_core::accel_calibration::SixPositionFit::new();
     // The sensor reads 2 % high with an offset.
     let offset = [0.01, -0.02, 0.03];
     let raw_of = |r: [f32; 3]| [0, 1, 2].map(|i| r[i] * 1.02 + offset[i]);
@@ -397,13 +399,6 @@ fn six_position_accelerometer_calibration() {
         let pos = position_by_name(name).unwrap();
         let (r, _) = run(&mut d, &mut f, &format!("PINAC,ACAL,{name}"));
         assert_eq!(r, format!("PINAR,OK,ACAL,RUN,{name},2"));
-        if k == 5 {
-            // Before the last position the fit cannot be solved.
-            assert_eq!(
-                refused(&mut d, &mut f, &cmd("PINAC,ACAL,FIT")),
-                "PINAR,ERR,ACAL,busy".replace("busy", "missing-positions,5")
-            );
-        }
         let mut reply = None;
         for _ in 0..150 {
             let i = inputs([0.0; 3], raw_of(pos.reference_g().to_array()), &mut n);
@@ -415,13 +410,21 @@ fn six_position_accelerometer_calibration() {
         let reply = reply.expect("position done");
         assert!(reply.starts_with(&format!("PINAR,OK,ACAL,DONE,{name},")), "{reply}");
         assert!(reply.ends_with(&format!(",{}", k + 1)), "{reply}");
+        // OK,ACAL,DONE,<pos>,<ax>,<ay>,<az>,<count>: the mean the sensor read there.
+        let mean: Vec<f32> = reply.split(',').skip(5).take(3).map(|v| v.parse().unwrap()).collect();
+        let truth = raw_of(pos.reference_g().to_array());
+        for (m, t) in mean.iter().zip(truth) {
+            assert!((m - t).abs() < 2e-3, "{name}: {mean:?} vs {truth:?}");
+        }
+        fit.add_position(pos, Vec3::new(mean[0], mean[1], mean[2]));
     }
     assert_eq!(run(&mut d, &mut f, "PINAC,STATUS").0, "PINAR,OK,STATUS,DEFAULTS,,POR,0001,3F");
-    let (r, a) = run(&mut d, &mut f, "PINAC,ACAL,FIT");
-    assert!(r.starts_with("PINAR,OK,ACAL,FIT,"), "{r}");
-    assert!(a.is_some());
-    let rms: f64 = r.rsplit(',').next().unwrap().parse().unwrap();
-    assert!(rms < 1e-3, "{rms}");
+    // The host fits X from the six means and sets it row by row.
+    let cal = fit.solve().unwrap();
+    for (row, name) in cal.x.iter().zip(["x", "y", "z", "o"]) {
+        let line = format!("PINAC,SET,accel_cal.{name},{:e},{:e},{:e}", row[0], row[1], row[2]);
+        assert!(run(&mut d, &mut f, &line).0.starts_with("PINAR,OK,SET,"));
+    }
     let cal = d.settings().conditioning.accel_calibration;
     for pos in ekf_core::accel_calibration::Position::ALL {
         let raw = Vec3::from_array(raw_of(pos.reference_g().to_array()));
@@ -438,10 +441,7 @@ fn six_position_accelerometer_calibration() {
     }
     assert_eq!(reply.as_deref(), Some("PINAR,ERR,ACAL,position"));
     assert_eq!(run(&mut d, &mut f, "PINAC,ACAL,CLEAR").0, "PINAR,OK,ACAL,CLEAR");
-    assert_eq!(
-        refused(&mut d, &mut f, &cmd("PINAC,ACAL,FIT")),
-        "PINAR,ERR,ACAL,missing-positions,0"
-    );
+    assert_eq!(run(&mut d, &mut f, "PINAC,STATUS").0, "PINAR,OK,STATUS,DEFAULTS,,POR,0003,00");
 }
 
 #[test]
@@ -602,7 +602,6 @@ fn print_examples() {
         }
     }
     for c in [
-        "PINAC,ACAL,FIT",
         "PINAC,ACAL,CLEAR",
         "PINAC,ABORT",
         "PINAC,SAVE",

@@ -120,10 +120,11 @@ pub struct Setting {
     /// `user = internal · scale` for [`Kind::F32`] and [`Kind::Vec3`]; 1 otherwise.
     pub scale: f64,
     /// Smallest valid value per component, user units ([`Kind::F32`], [`Kind::Vec3`],
-    /// [`Kind::U16`]).
-    pub min: f64,
+    /// [`Kind::U16`]). `f32` (the table's size in flash); compared in `f64` after the
+    /// conversion, so a limit such as 0.1 is the `f32` nearest to it.
+    pub min: f32,
     /// Largest valid value per component, user units.
-    pub max: f64,
+    pub max: f32,
 }
 
 impl core::fmt::Debug for Setting {
@@ -136,6 +137,11 @@ impl core::fmt::Debug for Setting {
 const DEG: f64 = 180.0 / core::f64::consts::PI;
 
 impl Setting {
+    /// [`Setting::min`] and [`Setting::max`] as `f64`.
+    pub fn range(&self) -> (f64, f64) {
+        (f64::from(self.min), f64::from(self.max))
+    }
+
     /// The current value (internal units).
     pub fn get(&self, s: &PipelineSettings) -> Value {
         // The accessor hands out a mutable slot: read it from a copy.
@@ -168,17 +174,18 @@ impl Setting {
     /// True when `v` (internal units) has this setting's kind and is in range. Scaled values
     /// get a relative slack of 1e−6 so that a stored internal value at a limit passes.
     pub fn check(&self, v: &Value) -> bool {
-        let slack = 1e-6 * self.min.abs().max(self.max.abs()).max(1.0);
+        let (min, max) = self.range();
+        let slack = 1e-6 * min.abs().max(max.abs()).max(1.0);
         let in_range = |x: f32| {
             x.is_finite() && {
                 let u = f64::from(x) * self.scale;
-                u >= self.min - slack && u <= self.max + slack
+                u >= min - slack && u <= max + slack
             }
         };
         match (*v, self.kind) {
             (Value::F32(x), Kind::F32) => in_range(x),
             (Value::Vec3(x), Kind::Vec3) => x.iter().all(|&c| in_range(c)),
-            (Value::U16(x), Kind::U16) => f64::from(x) >= self.min && f64::from(x) <= self.max,
+            (Value::U16(x), Kind::U16) => f64::from(x) >= min && f64::from(x) <= max,
             (Value::Bool(_), Kind::Bool) | (Value::Axes(_), Kind::Axes) => true,
             _ => false,
         }
@@ -211,7 +218,8 @@ impl Setting {
             },
             Kind::U16 => {
                 let n = number::parse_uint(f(0)).ok_or(ValueError::Type)?;
-                if f64::from(n) < self.min || f64::from(n) > self.max {
+                let (min, max) = self.range();
+                if f64::from(n) < min || f64::from(n) > max {
                     return Err(ValueError::Range);
                 }
                 u16::try_from(n).map(Value::U16).map_err(|_| ValueError::Range)
@@ -222,7 +230,9 @@ impl Setting {
 
     fn parse_scaled(&self, text: &str) -> Result<f32, ValueError> {
         let u = number::parse_number(text).ok_or(ValueError::Type)?;
-        if !(u.is_finite() && u >= self.min && u <= self.max) {
+        // In `f32`: the limits are `f32` (a value typed as the limit passes).
+        let user = u as f32;
+        if !(u.is_finite() && user >= self.min && user <= self.max) {
             return Err(ValueError::Range);
         }
         let internal = (u / self.scale) as f32;
@@ -351,7 +361,8 @@ impl Setting {
         let mut lo = [0u8; 24];
         let mut hi = [0u8; 24];
         let (nl, nh) = if range {
-            (number::format_number(self.min, &mut lo), number::format_number(self.max, &mut hi))
+            let (min, max) = self.range();
+            (number::format_number(min, &mut lo), number::format_number(max, &mut hi))
         } else {
             (0, 0)
         };

@@ -62,8 +62,8 @@ fn every_setting_is_independent_of_the_others() {
     let d = PipelineSettings::default();
     for s in &SETTINGS {
         let v = match s.get(&d) {
-            Value::F32(_) => Value::F32((s.max / s.scale) as f32),
-            Value::Vec3(_) => Value::Vec3([(s.min / s.scale) as f32; 3]),
+            Value::F32(_) => Value::F32((f64::from(s.max) / s.scale) as f32),
+            Value::Vec3(_) => Value::Vec3([(f64::from(s.min) / s.scale) as f32; 3]),
             Value::Bool(b) => Value::Bool(!b),
             Value::U16(_) => Value::U16(s.max as u16),
             Value::Axes(m) => {
