@@ -1104,13 +1104,21 @@ fn time_fixed(t: f64, out: &mut [u8; 24]) -> Option<usize> {
     if !t.is_finite() || t.abs() >= 4e9 || t == 0.0 {
         return None;
     }
-    let n = (t.abs() * 1e9).round() as u64;
+    let n = round_half_away(t.abs() * 1e9);
     if n == 0 {
         return None;
     }
     let k = write_fixed::<9>(t < 0.0, n, out);
     let back = if n <= 1 << 53 { n as f64 / 1e9 } else { fast_f64(&out[..k])?.abs() };
     (back == t.abs()).then_some(k)
+}
+
+/// `x.round() as u64` for `0 ≤ x < 2⁶³` without the library call: `x − trunc(x)` is exact
+/// (below 2⁵² `x` has its fraction bits; above, `x` is an integer and the difference 0).
+#[inline(always)]
+fn round_half_away(x: f64) -> u64 {
+    let i = x as i64;
+    (i + i64::from(x - i as f64 >= 0.5)) as u64
 }
 
 /// The 8 decimal digits of `n < 10^8` (leading zeros included) as byte values 0..=9, the most
@@ -2003,6 +2011,24 @@ mod tests {
         assert!(fixed_f32::<8>(f32::NEG_INFINITY, &mut out) && out.is_empty());
         fixed_f32::<8>(0.707_106_77, &mut out);
         assert_eq!(out, b"0.70710677");
+    }
+
+    #[test]
+    fn round_half_away_is_round() {
+        let mut rng = crate::rng::Rng::new(3, 0);
+        let mut check = |x: f64| assert_eq!(round_half_away(x), x.round() as u64, "{x:e}");
+        for k in 0..1_000_000u64 {
+            let x = rng.uniform() * 2f64.powi((k % 63) as i32);
+            let tie = (k >> 1) as f64 + 0.5;
+            for x in [x, tie, f64::from_bits(tie.to_bits() - 1), f64::from_bits(x.to_bits() + 1)] {
+                if x < 9.2e18 {
+                    check(x);
+                }
+            }
+        }
+        for x in [0.0, 0.5, 0.49999999999999994, 1.5, 2.5, 4503599627370495.5, 4e18] {
+            check(x);
+        }
     }
 
     #[test]
