@@ -2016,7 +2016,7 @@ mod tests {
     #[test]
     fn round_half_away_is_round() {
         let mut rng = crate::rng::Rng::new(3, 0);
-        let mut check = |x: f64| assert_eq!(round_half_away(x), x.round() as u64, "{x:e}");
+        let check = |x: f64| assert_eq!(round_half_away(x), x.round() as u64, "{x:e}");
         for k in 0..1_000_000u64 {
             let x = rng.uniform() * 2f64.powi((k % 63) as i32);
             let tie = (k >> 1) as f64 + 0.5;
