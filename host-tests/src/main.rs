@@ -9,7 +9,7 @@ use clap::{Parser, Subcommand};
 use ekf_core::conditioning::Conditioner;
 use host_tests::config::{parse_config, ReplayConfig};
 use host_tests::output::{produce_atomically, write_atomically};
-use host_tests::replay::{replay_serial, FilterKind, ReplayError};
+use host_tests::replay::{replay, FilterKind, ReplayError};
 use host_tests::sim::Scenario;
 use host_tests::trace::{read_estimate_file, read_trace_file, TraceReader, TraceWriter};
 
@@ -165,9 +165,9 @@ fn run_replay(
     let mut f = cfg.make_filter(filter);
     let mut cond = Conditioner::new(cfg.conditioning);
     let window = cfg.settings.init.window_s as f64;
-    // One thread: faster than the three-stage `replay` here, end to end and file to file (see
-    // the replay-speed table of docs/accuracy.md), and it leaves the other cores free.
-    let stats = write_atomically(out, |w| replay_serial(reader, w, f.as_mut(), &mut cond, window))
+    // Three threads: faster than `replay_serial` file to file when a second core is free; on a
+    // loaded machine the two trade places (see the replay-speed table of docs/accuracy.md).
+    let stats = write_atomically(out, |w| replay(reader, w, f.as_mut(), &mut cond, window))
         .map_err(|e| match e {
             ReplayError::Trace(e) => format!("{}: {e}", trace.display()),
             ReplayError::Io(e) => format!("{}: {e}", out.display()),
