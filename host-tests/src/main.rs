@@ -165,6 +165,8 @@ fn run_replay(
     let mut f = cfg.make_filter(filter);
     let mut cond = Conditioner::new(cfg.conditioning);
     let window = cfg.settings.init.window_s as f64;
+    // Three threads: faster than `replay_serial` file to file when a second core is free; on a
+    // loaded machine the two trade places (see the replay-speed table of docs/accuracy.md).
     let stats = write_atomically(out, |w| replay(reader, w, f.as_mut(), &mut cond, window))
         .map_err(|e| match e {
             ReplayError::Trace(e) => format!("{}: {e}", trace.display()),

@@ -526,7 +526,8 @@ fn decimal_f32(d: Decimal) -> Option<f32> {
     let x = if d.m > 1 << 53 {
         return None;
     } else if (-22..=0).contains(&d.e) {
-        let x = d.m as f64 * NEG_POW10[(-d.e) as usize];
+        // `m ≤ 2⁵³`: the signed conversion is the same, and shorter.
+        let x = d.m as i64 as f64 * NEG_POW10[(-d.e) as usize];
         if d.neg {
             -x
         } else {
@@ -730,33 +731,65 @@ fn digit_word(buf: &[u8], i: usize) -> Option<(u64, usize)> {
     Some((swar8(v.checked_shl(8 * (8 - k) as u32).unwrap_or(0)), k))
 }
 
-/// The common number form at `buf[s..]`: `[-]digits.digits` with at most 7 integer and 15
-/// fraction digits, 19 in all; the number and where it ends (the caller checks what follows).
-/// Three [`digit_word`]s (integer part, fraction, more fraction), no data-dependent branches
-/// on the usual path; `None` for anything else, left to [`scan_decimal`].
+/// Bytes [`window_decimal`] reads from the start of a cell: the longest form it takes and the
+/// byte after it (`-` + 7 + `.` + 15 + 1 < 32).
+const WINDOW: usize = 32;
+
+/// The digits at the start of the 8 bytes `c` (little endian, i.e. text order): their value
+/// bytes `c - '0'` and their count `k ≤ 8` (SWAR, see [`digit_word`]).
 #[inline(always)]
-fn plain_decimal(buf: &[u8], s: usize) -> Option<(Decimal, usize)> {
-    let neg = *buf.get(s)? == b'-';
-    let p = s + usize::from(neg);
-    // The integer part, usually one digit, and the `.` after it, from one word.
-    let c = u64::from_le_bytes(*buf.get(p..)?.first_chunk::<8>()?);
+fn digit_lanes(c: u64) -> (u64, usize) {
     let v = c.wrapping_sub(0x3030_3030_3030_3030);
     let non_digit = (c.wrapping_add(0x4646_4646_4646_4646) | v) & 0x8080_8080_8080_8080;
-    let k1 = (non_digit.trailing_zeros() / 8) as usize;
+    (v, (non_digit.trailing_zeros() / 8) as usize)
+}
+
+/// The value of the first `k ≤ 8` digit lanes of `v` ([`digit_lanes`]).
+#[inline(always)]
+fn lanes_value(v: u64, k: usize) -> u64 {
+    swar8(v.checked_shl(8 * (8 - k) as u32).unwrap_or(0))
+}
+
+/// The common number form at the start of `w`: `[-]digits.digits` with at most 7 integer and
+/// 15 fraction digits, 19 in all; the number and where it ends (the caller checks what
+/// follows, always inside `w`). One fixed window, so no bounds checks: the integer part and
+/// the `.` from one word, the fraction from one word, or two when it has 8 digits or more;
+/// `None` for anything else, left to [`scan_decimal`].
+#[inline(always)]
+fn window_decimal(w: &[u8; WINDOW]) -> Option<(Decimal, usize)> {
+    let neg = w[0] == b'-';
+    let p = usize::from(neg);
+    let word = |i: usize| u64::from_le_bytes(*w[i..].first_chunk::<8>().unwrap());
+    let c = word(p);
+    let (v, k1) = digit_lanes(c);
     if k1 == 8 || (c >> (8 * k1)) as u8 != b'.' {
         return None;
     }
-    let m1 =
-        if k1 == 1 { v & 0xff } else { swar8(v.checked_shl(8 * (8 - k1) as u32).unwrap_or(0)) };
+    // Usually one integer digit (`0.`, `-9.`, `1.`).
+    let m1 = if k1 == 1 { v & 0xff } else { lanes_value(v, k1) };
     let f = p + k1 + 1;
-    let (m2, k2) = digit_word(buf, f)?;
-    let (m3, k3) = digit_word(buf, f + 8)?;
-    let (m3, k3) = if k2 == 8 { (m3, k3) } else { (0, 0) };
-    if k3 == 8 || k1 + k2 + k3 > 19 || k1 + k2 == 0 {
-        return None;
-    }
-    let m = (m1 * POW10_U64[k2] + m2) * POW10_U64[k3] + m3;
-    Some((Decimal { neg, m, e: -((k2 + k3) as i32) }, f + k2 + k3))
+    let (va, ka) = digit_lanes(word(f));
+    let (m, k) = if ka < 8 {
+        if k1 + ka == 0 {
+            return None;
+        }
+        (m1 * POW10_U64[ka] + lanes_value(va, ka), ka)
+    } else {
+        let (vb, kb) = digit_lanes(word(f + 8));
+        if kb == 8 || k1 + 8 + kb > 19 {
+            return None;
+        }
+        ((m1 * 100_000_000 + swar8(va)) * POW10_U64[kb] + lanes_value(vb, kb), 8 + kb)
+    };
+    Some((Decimal { neg, m, e: -(k as i32) }, f + k))
+}
+
+/// [`window_decimal`] at `buf[s..]`, `None` where fewer than [`WINDOW`] bytes are left.
+#[cfg(test)]
+#[inline(always)]
+fn plain_decimal(buf: &[u8], s: usize) -> Option<(Decimal, usize)> {
+    let w = buf.get(s..)?.first_chunk::<WINDOW>()?;
+    window_decimal(w).map(|(d, n)| (d, s + n))
 }
 
 /// The fast path of [`TraceReader`]: one data line at the start of `buf`, parsed in place in a
@@ -788,11 +821,15 @@ fn fast_row(slots: &[u8], buf: &[u8]) -> Option<(TraceRow, usize)> {
                 }
             }
         } else if !matches!(buf.get(i)?, b',' | b'\n' | b'\r') {
-            let (d, end) = match plain_decimal(buf, i) {
-                Some((d, end)) if matches!(buf[end], b',' | b'\n' | b'\r') => (d, end),
-                _ => scan_decimal(&buf[i..]).map(|(d, n)| (d, i + n))?,
+            let plain = match buf[i..].first_chunk::<WINDOW>() {
+                Some(w) => window_decimal(w).filter(|&(_, n)| matches!(w[n], b',' | b'\n' | b'\r')),
+                None => None,
             };
-            i = end;
+            let (d, n) = match plain {
+                Some(r) => r,
+                None => scan_decimal(&buf[i..])?,
+            };
+            i += n;
             if slot == 0 {
                 t = decimal_f64(d)?;
             } else {
@@ -1067,13 +1104,21 @@ fn time_fixed(t: f64, out: &mut [u8; 24]) -> Option<usize> {
     if !t.is_finite() || t.abs() >= 4e9 || t == 0.0 {
         return None;
     }
-    let n = (t.abs() * 1e9).round() as u64;
+    let n = round_half_away(t.abs() * 1e9);
     if n == 0 {
         return None;
     }
     let k = write_fixed::<9>(t < 0.0, n, out);
     let back = if n <= 1 << 53 { n as f64 / 1e9 } else { fast_f64(&out[..k])?.abs() };
     (back == t.abs()).then_some(k)
+}
+
+/// `x.round() as u64` for `0 ≤ x < 2⁶³` without the library call: `x − trunc(x)` is exact
+/// (below 2⁵² `x` has its fraction bits; above, `x` is an integer and the difference 0).
+#[inline(always)]
+fn round_half_away(x: f64) -> u64 {
+    let i = x as i64;
+    (i + i64::from(x - i as f64 >= 0.5)) as u64
 }
 
 /// The 8 decimal digits of `n < 10^8` (leading zeros included) as byte values 0..=9, the most
@@ -1603,7 +1648,7 @@ mod tests {
     /// The number `text` gives on the reader's fast line path ([`plain_decimal`], else
     /// [`scan_decimal`], as in [`fast_row`]), the cell followed by `,` and padding.
     fn fast_cell(text: &str) -> Option<Decimal> {
-        let buf = format!("{text},0000000000000000000000000");
+        let buf = format!("{text},{:0<WINDOW$}", "");
         let buf = buf.as_bytes();
         match plain_decimal(buf, 0) {
             Some((d, end)) if buf[end] == b',' => (end == text.len()).then_some(d),
@@ -1657,7 +1702,7 @@ mod tests {
                 format!("{}.{}", k % 1000, bits % 10u64.pow(1 + k % 15)),
             ] {
                 check_parsers(&t);
-                if plain_decimal(format!("{t},0000000000000000").as_bytes(), 0).is_some() {
+                if plain_decimal(format!("{t},{:0<WINDOW$}", "").as_bytes(), 0).is_some() {
                     plain += 1;
                 }
             }
@@ -1966,6 +2011,24 @@ mod tests {
         assert!(fixed_f32::<8>(f32::NEG_INFINITY, &mut out) && out.is_empty());
         fixed_f32::<8>(0.707_106_77, &mut out);
         assert_eq!(out, b"0.70710677");
+    }
+
+    #[test]
+    fn round_half_away_is_round() {
+        let mut rng = crate::rng::Rng::new(3, 0);
+        let check = |x: f64| assert_eq!(round_half_away(x), x.round() as u64, "{x:e}");
+        for k in 0..1_000_000u64 {
+            let x = rng.uniform() * 2f64.powi((k % 63) as i32);
+            let tie = (k >> 1) as f64 + 0.5;
+            for x in [x, tie, f64::from_bits(tie.to_bits() - 1), f64::from_bits(x.to_bits() + 1)] {
+                if x < 9.2e18 {
+                    check(x);
+                }
+            }
+        }
+        for x in [0.0, 0.5, 0.49999999999999994, 1.5, 2.5, 4503599627370495.5, 4e18] {
+            check(x);
+        }
     }
 
     #[test]

@@ -1,0 +1,91 @@
+//! Instruction counts per replay stage, for callgrind (the stable figure on a busy machine):
+//!
+//! ```text
+//! cargo build --release -p host-tests --example replay_profile
+//! valgrind --tool=callgrind --collect-atstart=no --toggle-collect='*stage_STAGE*' \
+//!     target/release/examples/replay_profile STAGE [ROWS]
+//! ```
+//!
+//! `STAGE` is `parse`, `filter`, `format` or `serial` (all on one thread, memory to memory);
+//! the trace is the `still-hour` scenario (seed 1) cut to `ROWS` rows (default 20 000). The
+//! collected count divided by `ROWS` is the instructions per row of that stage.
+
+use std::io::BufReader;
+
+use ekf_core::conditioning::Conditioner;
+use host_tests::accuracy::{replay_config, simulate, RATE_HZ};
+use host_tests::config::ReplayConfig;
+use host_tests::replay::{replay_rows, replay_serial, FilterKind};
+use host_tests::sim::Scenario;
+use host_tests::trace::TraceWriter;
+use host_tests::trace::{EstimateRow, EstimateWriter, TraceColumns, TraceReader, TraceRow};
+
+#[inline(never)]
+fn stage_parse(csv: &[u8]) -> usize {
+    let mut r = TraceReader::new(BufReader::with_capacity(1 << 16, csv)).unwrap();
+    let mut k = 0;
+    while let Some(row) = r.next_row().unwrap() {
+        std::hint::black_box(row);
+        k += 1;
+    }
+    k
+}
+
+#[inline(never)]
+fn stage_filter(cfg: &ReplayConfig, rows: &[TraceRow], est: &mut Vec<EstimateRow>) {
+    let mut f = cfg.make_filter(FilterKind::Ekf);
+    let mut cond = Conditioner::new(cfg.conditioning);
+    let window = cfg.settings.init.window_s as f64;
+    replay_rows(rows.iter().map(|r| Ok(*r)), f.as_mut(), &mut cond, window, |_, e| {
+        est.push(*e);
+        Ok(())
+    })
+    .unwrap();
+}
+
+#[inline(never)]
+fn stage_format(est: &[EstimateRow], out: &mut Vec<u8>) {
+    let mut w = EstimateWriter::new(out).unwrap();
+    for e in est {
+        w.row(e).unwrap();
+    }
+    w.finish().unwrap();
+}
+
+#[inline(never)]
+fn stage_serial(cfg: &ReplayConfig, csv: &[u8], out: &mut Vec<u8>) {
+    let reader = TraceReader::new(BufReader::with_capacity(1 << 16, csv)).unwrap();
+    let mut f = cfg.make_filter(FilterKind::Ekf);
+    let mut cond = Conditioner::new(cfg.conditioning);
+    let window = cfg.settings.init.window_s as f64;
+    replay_serial(reader, out, f.as_mut(), &mut cond, window).unwrap();
+}
+
+fn main() {
+    let mut args = std::env::args().skip(1);
+    let stage = args.next().unwrap_or_else(|| "serial".into());
+    let n: usize = args.next().map_or(20_000, |s| s.parse().expect("ROWS"));
+    let scenario = Scenario::StillHour;
+    let rows = simulate(scenario, Some(n as f64 / RATE_HZ), 1);
+    let rows = &rows[..n.min(rows.len())];
+    let mut w =
+        TraceWriter::new(Vec::new(), TraceColumns { truth: true, ..Default::default() }).unwrap();
+    for r in rows {
+        w.row(r).unwrap();
+    }
+    let csv = w.finish().unwrap();
+    let cfg = replay_config(scenario);
+    let mut est = Vec::with_capacity(rows.len());
+    let mut out = Vec::with_capacity(rows.len() * 128);
+    match stage.as_str() {
+        "parse" => assert_eq!(stage_parse(&csv), rows.len()),
+        "filter" => stage_filter(&cfg, rows, &mut est),
+        "format" => {
+            stage_filter(&cfg, rows, &mut est);
+            stage_format(&est, &mut out);
+        }
+        "serial" => stage_serial(&cfg, &csv, &mut out),
+        _ => panic!("stage: parse, filter, format or serial"),
+    }
+    eprintln!("{stage}: {} rows, {} bytes in, {} bytes out", rows.len(), csv.len(), out.len());
+}
