@@ -10,6 +10,14 @@ use crate::{quaternion::Mat3, Vec3};
 /// Number of error states.
 pub const N: usize = 6;
 
+/// `N`, hidden from the optimiser: loops up to it stay rolled instead of being unrolled 21
+/// times over. For the rarely run updates, whose unrolled code would cost the 64 KiB
+/// firmware kilobytes of flash for no measurable time.
+#[inline(always)]
+fn rolled() -> usize {
+    core::hint::black_box(N).min(N)
+}
+
 /// Symmetric 6×6 covariance. Rows/columns 0–2: attitude error (rad², NED x, y, z);
 /// 3–5: gyro-bias error ((rad/s)², body x, y, z).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -180,7 +188,28 @@ impl Cov6 {
     /// configuration's update is the inlined `Untracked` one.
     #[inline(never)]
     fn update_tracked(&mut self, t: &TiltInnovation, gain: [bool; N]) -> [f32; N] {
-        self.update_rows(t, gain, [true; N])
+        let mut dx = [0.0f32; N];
+        let n = rolled();
+        for j in 0..2 {
+            let first = j == 0;
+            let (z, inv) = if first { (t.z[0], t.s_inv[0]) } else { (t.z2, t.s_inv[1]) };
+            let p = &mut self.m;
+            let c: [f32; N] = core::array::from_fn(|i| p[i][j]);
+            for i in 0..n {
+                let g = c[i] * inv;
+                if gain[i] {
+                    dx[i] = if first { g * z } else { dx[i] + g * z };
+                }
+                for l in i..n {
+                    if gain[i] || gain[l] {
+                        let v = p[i][l] - g * c[l];
+                        p[i][l] = v;
+                        p[l][i] = v;
+                    }
+                }
+            }
+        }
+        dx
     }
 
     /// [`Cov6::update_tilt`]: rows with `gain[i]` are corrected; elements `(i, l)` with both
