@@ -19,8 +19,7 @@ use host_tests::sim::{Scenario, SimSample, Simulator};
 use inemo_ahrs::{
     adc::AdcMean,
     board,
-    command::{position_by_name, Action, Device, LineAssembler, LineEvent},
-    nmea,
+    command::{Action, Device, LineAssembler, LineEvent},
     persist::{self, SimFlash},
     pipeline::{Inputs, Pipeline, PipelineSettings},
 };
@@ -231,17 +230,9 @@ impl Firmware {
 
     /// The test helper `--follow-acal`: move the simulated board as the operator would.
     fn follow(&mut self, event: &LineEvent) {
-        let LineEvent::Line(line) = event else { return };
-        let Ok(body) = nmea::verify(line.as_bytes()) else { return };
-        let mut f = body.split(',');
-        if !f.next().is_some_and(|a| a.eq_ignore_ascii_case("PINAC")) {
-            return;
+        if let Some(pose) = ekf_emu::serial::operator_pose(event) {
+            self.board.pose = pose;
         }
-        // `ACAL,<position>` holds the board there; any other command (`ACAL,CLEAR`, the `SET`s
-        // of the fitted calibration) puts it back.
-        let acal = f.next().is_some_and(|v| v.eq_ignore_ascii_case("ACAL"));
-        self.board.pose =
-            f.next().filter(|_| acal).and_then(position_by_name).map(|p| p.reference_g());
     }
 
     fn receive(&mut self, port: &mut File) -> io::Result<()> {

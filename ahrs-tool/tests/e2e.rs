@@ -6,7 +6,8 @@ use std::{
     process::{Child, Command, Output, Stdio},
 };
 
-const BIN: &str = env!("CARGO_BIN_EXE_ahrs-tool");
+mod common;
+use common::{stdout, BIN};
 
 /// A running emulator; killed on drop (also when a test fails).
 struct Emulator {
@@ -47,10 +48,6 @@ impl Drop for Emulator {
         let _ = self.child.kill();
         let _ = self.child.wait();
     }
-}
-
-fn stdout(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stdout).into_owned()
 }
 
 #[test]
@@ -145,24 +142,7 @@ fn log_still_board_into_a_replayable_trace() {
 #[test]
 fn calibrate_six_positions_from_stdin_and_save() {
     let emu = Emulator::start(&["--follow-acal"]);
-    let mut child = Command::new(BIN)
-        .args(["calibrate", &emu.port, "--seconds", "1"])
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("run calibrate");
-    child.stdin.take().unwrap().write_all(b"\n\n\n\n\n\ny\n").unwrap();
-    let o = child.wait_with_output().unwrap();
-    let text = stdout(&o);
-    assert!(o.status.success(), "{text}\n{}", String::from_utf8_lossy(&o.stderr));
-    let rms: f64 = text
-        .split("rms residual ")
-        .nth(1)
-        .and_then(|r| r.split_whitespace().next())
-        .and_then(|r| r.parse().ok())
-        .unwrap_or_else(|| panic!("no residual in {text}"));
-    assert!(rms < 0.005, "{rms}");
+    let text = common::calibrate(&emu.port);
     assert!(text.contains("Saved: $PINAR,OK,SAVE,A,1"), "{text}");
     let status = stdout(&emu.tool(&["send", "STATUS"]));
     assert!(status.starts_with("$PINAR,OK,STATUS,A,1,") && status.contains(",3F*"), "{status}");

@@ -28,7 +28,8 @@ use host_tests::{
     trace::{read_trace_file, TraceReader, TraceRow},
 };
 
-const BIN: &str = env!("CARGO_BIN_EXE_ahrs-tool");
+mod common;
+use common::{stdout, BIN};
 /// Rate of the firmware's filter (default setting) and of the trace, Hz.
 const RATE: f64 = 50.0;
 
@@ -182,10 +183,6 @@ impl Drop for Qemu {
         let _ = self.child.kill();
         let _ = self.child.wait();
     }
-}
-
-fn stdout(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stdout).into_owned()
 }
 
 fn wait_until(t: Instant) {
@@ -381,24 +378,7 @@ fn tool_against_the_firmware_on_qemu() {
 
     // Six-position calibration with the board put in each position by the firmware's
     // cooperative operator, saved, kept over a reset.
-    let mut child = Command::new(BIN)
-        .args(["calibrate", &q.port, "--seconds", "1"])
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("run calibrate");
-    child.stdin.take().unwrap().write_all(b"\n\n\n\n\n\ny\n").unwrap();
-    let o = child.wait_with_output().unwrap();
-    let text = stdout(&o);
-    assert!(o.status.success(), "{text}\n{}", String::from_utf8_lossy(&o.stderr));
-    let rms: f64 = text
-        .split("rms residual ")
-        .nth(1)
-        .and_then(|r| r.split_whitespace().next())
-        .and_then(|r| r.parse().ok())
-        .unwrap_or_else(|| panic!("no residual in {text}"));
-    assert!(rms < 0.005, "{rms}");
+    let text = common::calibrate(&q.port);
     assert!(text.contains("Saved: $PINAR,OK,SAVE,B,2"), "{text}");
     assert_eq!(status(&q)[4], "3F", "all six positions collected");
     let (_, cal) = q.send(&["GET", "accel_cal.x"]);

@@ -128,16 +128,9 @@ impl<'f, F: Flash> SerialFirmware<'f, F> {
 
     /// The cooperative operator: hold the board in the position of an `ACAL,<position>`.
     fn follow_acal(&mut self, event: &LineEvent) {
-        let LineEvent::Line(line) = event else { return };
-        let Ok(body) = nmea::verify(line.as_bytes()) else { return };
-        let mut f = body.split(',');
-        if !f.next().is_some_and(|a| a.eq_ignore_ascii_case("PINAC")) {
-            return;
+        if let Some(pose) = operator_pose(event) {
+            self.pose = pose;
         }
-        // `ACAL,<position>` holds the board there; any other command (`ACAL,CLEAR`, the `SET`s
-        // of the fitted calibration) puts it back.
-        let acal = f.next().is_some_and(|v| v.eq_ignore_ascii_case("ACAL"));
-        self.pose = f.next().filter(|_| acal).and_then(position_by_name).map(|p| p.reference_g());
     }
 
     /// Approximately normal noise, zero mean, standard deviation `sigma` (sum of four
@@ -194,6 +187,23 @@ impl<'f, F: Flash> SerialFirmware<'f, F> {
         inputs.accel_g = Some([lsb(pose.x), lsb(pose.y), lsb(pose.z)]);
         inputs
     }
+}
+
+/// The cooperative operator of the six-position calibration, shared by the emulators
+/// (`ekf-emu-serial` on QEMU, `ahrs-tool emulate`): for a command line with a valid checksum,
+/// the board's pose it asks for — `Some(Some(g))`: hold still with gravity `g` (g, body) as in
+/// the position named by `ACAL,<position>`; `Some(None)`: any other command (`ACAL,CLEAR`, the
+/// `SET`s of the fitted calibration) puts the board back to its scenario; `None`: not a
+/// command line, nothing changes.
+pub fn operator_pose(event: &LineEvent) -> Option<Option<Vec3>> {
+    let LineEvent::Line(line) = event else { return None };
+    let body = nmea::verify(line.as_bytes()).ok()?;
+    let mut f = body.split(',');
+    if !f.next().is_some_and(|a| a.eq_ignore_ascii_case("PINAC")) {
+        return None;
+    }
+    let acal = f.next().is_some_and(|v| v.eq_ignore_ascii_case("ACAL"));
+    Some(f.next().filter(|_| acal).and_then(position_by_name).map(|p| p.reference_g()))
 }
 
 #[cfg(test)]
@@ -272,5 +282,26 @@ mod tests {
         assert!(f[0].abs() < 0.002 && (f[1] - f64::from(y)).abs() < 0.002, "{done}");
         assert!(f[2].abs() < 0.002, "{done}");
         assert!(command(&mut fw, "ACAL,CLEAR").contains("OK,ACAL,CLEAR"));
+    }
+
+    #[test]
+    fn the_operator_holds_the_named_position_until_another_command() {
+        let event = |text: &str| {
+            let mut asm = LineAssembler::new();
+            text.bytes().find_map(|b| asm.push(b)).expect("a complete line")
+        };
+        let line = |body: &str| {
+            let sum = body.bytes().fold(0u8, |s, b| s ^ b);
+            std::format!("${body}*{sum:02X}\r\n")
+        };
+        let xup = operator_pose(&event(&line("PINAC,ACAL,XUP")));
+        assert_eq!(xup, Some(Some(Vec3::new(1.0, 0.0, 0.0))));
+        let zdown = operator_pose(&event(&line("PINAC,ACAL,zdown")));
+        assert_eq!(zdown, Some(Some(Vec3::new(0.0, 0.0, -1.0))));
+        assert_eq!(operator_pose(&event(&line("PINAC,SET,accel_cal.o,0,0,0"))), Some(None));
+        assert_eq!(operator_pose(&event(&line("PINAC,ACAL,CLEAR"))), Some(None));
+        // Not commands: a bad checksum, another talker.
+        assert_eq!(operator_pose(&event("$PINAC,ACAL,XUP*00\r\n")), None);
+        assert_eq!(operator_pose(&event(&line("GPGGA,ACAL,XUP"))), None);
     }
 }
