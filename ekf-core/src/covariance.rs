@@ -92,9 +92,50 @@ impl Cov6 {
     pub fn predict(&mut self, a: &Mat3, u: Vec3, dt: f32, q: &ProcessNoise, yaw: YawRow) {
         let (psd_xy, psd_z, qb) = (q.gyro_psd_xy, q.gyro_psd_z, q.bias_random_walk);
         match yaw {
-            YawRow::Untracked => self.predict_rows::<2>(a, psd_xy, psd_z, u, dt, qb),
+            YawRow::Untracked => self.predict_untracked(a, psd_xy, psd_z, u, dt, qb),
             YawRow::Free | YawRow::Frozen => self.predict_rows::<3>(a, psd_xy, psd_z, u, dt, qb),
         }
+    }
+
+    /// [`Cov6::predict_rows`] for the two tilt rows, unrolled (the default configuration's hot
+    /// path): the same operations in the same order.
+    #[inline(always)]
+    fn predict_untracked(&mut self, a: &Mat3, psd_xy: f32, psd_z: f32, u: Vec3, dt: f32, qb: f32) {
+        let p = &mut self.m;
+        let mut new_ab = [[0.0f32; 3]; 2];
+        unroll!(i in [0, 1] {
+            unroll!(j in [0, 1, 2] {
+                let apbb = a[i][0] * p[3][3 + j] + a[i][1] * p[4][3 + j] + a[i][2] * p[5][3 + j];
+                new_ab[i][j] = p[i][3 + j] - apbb;
+            })
+        });
+        let qd = (psd_z - psd_xy) * dt;
+        let qi = psd_xy * dt;
+        let uu = [u.x, u.y, u.z];
+        let qdu = [qd * uu[0], qd * uu[1]];
+        unroll!(i in [0, 1] {
+            let v: [f32; 3] = core::array::from_fn(|k| p[i][3 + k] + new_ab[i][k]);
+            let d = p[i][i] - (v[0] * a[i][0] + v[1] * a[i][1] + v[2] * a[i][2]);
+            p[i][i] = d + qdu[i] * uu[i] + qi;
+            if i == 0 {
+                let j = 1;
+                let pab_at = p[i][3] * a[j][0] + p[i][4] * a[j][1] + p[i][5] * a[j][2];
+                let a_ut = a[i][0] * new_ab[j][0] + a[i][1] * new_ab[j][1] + a[i][2] * new_ab[j][2];
+                let v = p[i][j] - pab_at - a_ut + qdu[i] * uu[j];
+                p[i][j] = v;
+                p[j][i] = v;
+            }
+        });
+        unroll!(i in [0, 1] {
+            unroll!(j in [0, 1, 2] {
+                p[i][3 + j] = new_ab[i][j];
+                p[3 + j][i] = new_ab[i][j];
+            })
+        });
+        let qbd = qb * dt;
+        unroll!(i in [3, 4, 5] {
+            p[i][i] += qbd;
+        });
     }
 
     /// [`Cov6::predict`] over the attitude rows `0..NA` (and the bias block).
@@ -179,7 +220,7 @@ impl Cov6 {
         match yaw {
             YawRow::Free => self.update_tracked(t, ALL),
             YawRow::Frozen => self.update_tracked(t, NO_YAW),
-            YawRow::Untracked => self.update_rows(t, NO_YAW, NO_YAW),
+            YawRow::Untracked => self.update_untracked(t),
         }
     }
 
@@ -212,42 +253,36 @@ impl Cov6 {
         dx
     }
 
-    /// [`Cov6::update_tilt`]: rows with `gain[i]` are corrected; elements `(i, l)` with both
-    /// `rows` set and `gain` set for at least one of them are updated. Two scalar updates,
-    /// `H = e₀` with innovation `z₀`, then `H = e₁` with `z2`.
+    /// [`Cov6::update_tilt`] with the yaw row untracked (the default configuration's hot path),
+    /// unrolled: two scalar updates, `H = e₀` with innovation `z₀`, then `H = e₁` with `z2`, on
+    /// the tilt and bias rows.
     #[inline(always)]
-    fn update_rows(&mut self, t: &TiltInnovation, gain: [bool; N], rows: [bool; N]) -> [f32; N] {
+    fn update_untracked(&mut self, t: &TiltInnovation) -> [f32; N] {
         let mut dx = [0.0f32; N];
-        for j in 0..2 {
+        unroll!(j in [0, 1] {
             let first = j == 0;
             let (z, inv) = if first { (t.z[0], t.s_inv[0]) } else { (t.z2, t.s_inv[1]) };
             let p = &mut self.m;
-            // c = P e_j, g = c / s; P' = P − g cᵀ except where both indices are frozen
-            // (Joseph form with the gain restricted to the free rows).
+            // c = P e_j, g = c / s; P' = P − g cᵀ (yaw row and column untouched).
             let mut c = [0.0f32; N];
             let mut g = [0.0f32; N];
-            for i in 0..N {
-                if rows[i] {
-                    c[i] = p[i][j];
-                    g[i] = c[i] * inv;
-                }
-            }
-            for i in 0..N {
-                if gain[i] {
-                    dx[i] = if first { g[i] * z } else { dx[i] + g[i] * z };
-                }
-            }
-            for i in 0..N {
-                for l in i..N {
-                    if !(rows[i] && rows[l]) || !(gain[i] || gain[l]) {
-                        continue;
+            unroll!(i in [0, 1, 3, 4, 5] {
+                c[i] = p[i][j];
+                g[i] = c[i] * inv;
+            });
+            unroll!(i in [0, 1, 3, 4, 5] {
+                dx[i] = if first { g[i] * z } else { dx[i] + g[i] * z };
+            });
+            unroll!(i in [0, 1, 3, 4, 5] {
+                unroll!(l in [0, 1, 3, 4, 5] {
+                    if l >= i {
+                        let v = p[i][l] - g[i] * c[l];
+                        p[i][l] = v;
+                        p[l][i] = v;
                     }
-                    let v = p[i][l] - g[i] * c[l];
-                    p[i][l] = v;
-                    p[l][i] = v;
-                }
-            }
-        }
+                });
+            });
+        });
         dx
     }
 
@@ -298,7 +333,11 @@ impl Cov6 {
     /// Cheap health check, run every cycle: every diagonal element finite and in
     /// `(0, max_diag[i]]`. (Symmetry holds by construction: every write is mirrored.)
     pub fn diagonal_is_healthy(&self, max_diag: &[f32; N]) -> bool {
-        (0..N).all(|i| crate::fcmp::in_pos_range(self.m[i][i], max_diag[i]))
+        let mut ok = true;
+        unroll!(i in [0, 1, 2, 3, 4, 5] {
+            ok &= crate::fcmp::in_pos_range(self.m[i][i], max_diag[i]);
+        });
+        ok
     }
 
     /// Full health check: every element finite, diagonal in `(0, max_diag[i]]`, each off-diagonal

@@ -165,9 +165,13 @@ impl Ekf {
         // A = R·dt; its yaw row only when the yaw error is tracked.
         let rows = if yaw == YawRow::Untracked { 2 } else { 3 };
         let mut a: Mat3 = [[0.0; 3]; 3];
-        for (ai, ri) in a.iter_mut().zip(&r).take(rows) {
-            *ai = ri.map(|v| v * dt);
-        }
+        unroll!(i in [0, 1, 2] {
+            if i < rows {
+                unroll!(j in [0, 1, 2] {
+                    a[i][j] = r[i][j] * dt;
+                });
+            }
+        });
         let u = Vec3::new(r[0][2], r[1][2], r[2][2]);
         self.p.predict(&a, u, dt, &self.noise, yaw);
         (r, rate)

@@ -21,6 +21,18 @@
 // Small fixed-size matrix code reads best with explicit indices.
 #![allow(clippy::needless_range_loop)]
 
+/// The block once per listed index, as straight-line code with constant indices: the hot
+/// loops are unrolled whatever the optimisation level (the firmware's `ekf-core` is built for
+/// size, where the optimiser would keep them rolled; `docs/performance.md`).
+macro_rules! unroll {
+    ($i:ident in [$($v:literal),*] $body:block) => {{
+        $({
+            let $i: usize = $v;
+            $body
+        })*
+    }};
+}
+
 pub mod accel_calibration;
 pub mod axis_map;
 pub mod complementary;

@@ -80,10 +80,8 @@ pub fn atan2(y: f32, x: f32) -> f32 {
     let (num, den) = (f32::from_bits(den), f32::from_bits(num));
     let t = num / den; // in [0, 1]
     let u = t * t;
-    let mut p = C[6];
-    for c in C[..6].iter().rev() {
-        p = p * u + c;
-    }
+    // Horner, written out (kept unrolled at every optimisation level).
+    let p = ((((((C[6] * u + C[5]) * u + C[4]) * u + C[3]) * u + C[2]) * u + C[1]) * u) + C[0];
     let mut a = p * t;
     if swap {
         a = core::f32::consts::FRAC_PI_2 - a;

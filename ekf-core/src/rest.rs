@@ -33,6 +33,7 @@ const SQUARE_CLAMP: i32 = 1 << 26;
 
 /// `x·2^frac` rounded toward zero, saturated to `i32`, from the float's bits (no soft-float
 /// call); NaN gives 0 (the filters never pass one: `validate` rejects it first).
+#[inline(always)]
 fn to_fixed(x: f32, frac: i32) -> i32 {
     let b = x.to_bits();
     let e = ((b >> 23) & 0xff) as i32;
@@ -66,6 +67,7 @@ fn to_fixed(x: f32, frac: i32) -> i32 {
 }
 
 /// `v²` of `v` clamped to ±`SQUARE_CLAMP`.
+#[inline(always)]
 fn square(v: i32) -> i64 {
     let v = v.clamp(-SQUARE_CLAMP, SQUARE_CLAMP) as i64;
     v * v
@@ -148,25 +150,31 @@ impl RestDetector {
         self.t += dt;
         match rate {
             Some(w) => {
-                for (i, v) in w.to_array().into_iter().enumerate() {
-                    let v = to_fixed(v, RATE_FRAC_BITS);
+                let w = w.to_array();
+                unroll!(i in [0, 1, 2] {
+                    let v = to_fixed(w[i], RATE_FRAC_BITS);
                     self.g_sum[i] = self.g_sum[i].saturating_add(v as i64);
                     self.g_sq[i] = self.g_sq[i].saturating_add(square(v));
-                }
+                });
             }
             None => self.broken = true,
         }
         match accel_g {
             Some(a) => {
-                let a = a.to_array().map(|v| to_fixed(v, ACCEL_FRAC_BITS));
+                let a = [a.x, a.y, a.z];
+                let a = [
+                    to_fixed(a[0], ACCEL_FRAC_BITS),
+                    to_fixed(a[1], ACCEL_FRAC_BITS),
+                    to_fixed(a[2], ACCEL_FRAC_BITS),
+                ];
                 // Deviations from the block's first sample: small, so their squares are too.
                 let r = *self.a_ref.get_or_insert(a);
                 self.a_n += 1;
-                for i in 0..3 {
+                unroll!(i in [0, 1, 2] {
                     let d = a[i].saturating_sub(r[i]);
                     self.a_sum[i] = self.a_sum[i].saturating_add(d as i64);
                     self.a_sq[i] = self.a_sq[i].saturating_add(square(d));
-                }
+                });
             }
             None => self.broken = true,
         }
