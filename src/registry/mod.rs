@@ -9,13 +9,15 @@
 //!
 //! Units. The wire uses the operator's units — degrees, °/s, °/h, g, mV/(°/s) — written in
 //! ASCII ([`Setting::unit`]: `deg`, `deg/s`, `deg/h`, ...). `PipelineSettings` stores SI/rad
-//! values; [`Setting::scale`] converts (`user = internal · scale`, in `f64`). Ranges
+//! values; [`Setting::scale`] converts (`user = internal · scale`, computed in [`ext::Ext`]:
+//! a 64-bit mantissa in integer arithmetic, no `f64` soft-float on the target). Ranges
 //! ([`Setting::min`], [`Setting::max`]) are in user units, inclusive, and apply to every
 //! component of a vector. Values are printed with 7 significant digits
 //! ([`number::push_number`]); flash keeps the internal `f32` bits, so a save and a load are
 //! exact.
 
 mod decimal;
+pub mod ext;
 pub mod number;
 mod slot;
 mod table;
@@ -23,6 +25,9 @@ mod table;
 pub use table::SETTINGS;
 
 use ekf_core::axis_map::AxisMap;
+use ekf_core::mathf;
+
+use ext::Ext;
 
 use crate::nmea::{NmeaError, Sentence};
 use crate::pipeline::PipelineSettings;
@@ -120,8 +125,8 @@ pub struct Setting {
     /// `user = internal · scale` for [`Kind::F32`] and [`Kind::Vec3`]; 1 otherwise.
     pub scale: f64,
     /// Smallest valid value per component, user units ([`Kind::F32`], [`Kind::Vec3`],
-    /// [`Kind::U16`]). `f32` (the table's size in flash); compared in `f64` after the
-    /// conversion, so a limit such as 0.1 is the `f32` nearest to it.
+    /// [`Kind::U16`]). `f32` (the table's size in flash); a parsed value is compared after
+    /// its rounding to `f32`, so a limit such as 0.1 is the `f32` nearest to it.
     pub min: f32,
     /// Largest valid value per component, user units.
     pub max: f32,
@@ -137,9 +142,14 @@ impl core::fmt::Debug for Setting {
 const DEG: f64 = 180.0 / core::f64::consts::PI;
 
 impl Setting {
-    /// [`Setting::min`] and [`Setting::max`] as `f64`.
-    pub fn range(&self) -> (f64, f64) {
-        (f64::from(self.min), f64::from(self.max))
+    /// [`Setting::min`] and [`Setting::max`].
+    pub fn range(&self) -> (f32, f32) {
+        (self.min, self.max)
+    }
+
+    /// [`Setting::scale`], exactly (its bits: no `f64` arithmetic).
+    pub fn scale_ext(&self) -> Ext {
+        Ext::from_f64(self.scale)
     }
 
     /// The current value (internal units).
@@ -175,17 +185,17 @@ impl Setting {
     /// get a relative slack of 1e−6 so that a stored internal value at a limit passes.
     pub fn check(&self, v: &Value) -> bool {
         let (min, max) = self.range();
-        let slack = 1e-6 * min.abs().max(max.abs()).max(1.0);
+        let slack = 1e-6 * mathf::abs(min).max(mathf::abs(max)).max(1.0);
         let in_range = |x: f32| {
             x.is_finite() && {
-                let u = f64::from(x) * self.scale;
+                let u = Ext::from_f32(x).times(self.scale_ext()).to_f32();
                 u >= min - slack && u <= max + slack
             }
         };
         match (*v, self.kind) {
             (Value::F32(x), Kind::F32) => in_range(x),
             (Value::Vec3(x), Kind::Vec3) => x.iter().all(|&c| in_range(c)),
-            (Value::U16(x), Kind::U16) => f64::from(x) >= min && f64::from(x) <= max,
+            (Value::U16(x), Kind::U16) => f32::from(x) >= min && f32::from(x) <= max,
             (Value::Bool(_), Kind::Bool) | (Value::Axes(_), Kind::Axes) => true,
             _ => false,
         }
@@ -219,7 +229,8 @@ impl Setting {
             Kind::U16 => {
                 let n = number::parse_uint(f(0)).ok_or(ValueError::Type)?;
                 let (min, max) = self.range();
-                if f64::from(n) < min || f64::from(n) > max {
+                // n < 10^9; the limits are integers below 2^24, exact in `f32`.
+                if (n as f32) < min || (n as f32) > max {
                     return Err(ValueError::Range);
                 }
                 u16::try_from(n).map(Value::U16).map_err(|_| ValueError::Range)
@@ -231,11 +242,11 @@ impl Setting {
     fn parse_scaled(&self, text: &str) -> Result<f32, ValueError> {
         let u = number::parse_number(text).ok_or(ValueError::Type)?;
         // In `f32`: the limits are `f32` (a value typed as the limit passes).
-        let user = u as f32;
-        if !(u.is_finite() && user >= self.min && user <= self.max) {
+        let user = u.to_f32();
+        if !(user.is_finite() && user >= self.min && user <= self.max) {
             return Err(ValueError::Range);
         }
-        let internal = (u / self.scale) as f32;
+        let internal = u.over(self.scale_ext()).to_f32();
         if !internal.is_finite() {
             return Err(ValueError::Range);
         }
@@ -245,13 +256,13 @@ impl Setting {
     /// Append `v` (internal units) as comma-separated fields in user units.
     pub fn write_value(&self, v: &Value, out: &mut Sentence) -> Result<(), NmeaError> {
         match *v {
-            Value::F32(x) => number::push_number(out, f64::from(x) * self.scale),
+            Value::F32(x) => number::push_scaled(out, x, self.scale_ext()),
             Value::Vec3(x) => {
                 for (i, c) in x.iter().enumerate() {
                     if i > 0 {
                         out.push_str(",")?;
                     }
-                    number::push_number(out, f64::from(*c) * self.scale)?;
+                    number::push_scaled(out, *c, self.scale_ext())?;
                 }
                 Ok(())
             }
@@ -362,7 +373,10 @@ impl Setting {
         let mut hi = [0u8; 24];
         let (nl, nh) = if range {
             let (min, max) = self.range();
-            (number::format_number(min, &mut lo), number::format_number(max, &mut hi))
+            (
+                number::format_number(Ext::from_f32(min), &mut lo),
+                number::format_number(Ext::from_f32(max), &mut hi),
+            )
         } else {
             (0, 0)
         };
