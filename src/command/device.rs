@@ -359,7 +359,7 @@ impl Device {
                 out.uint(SETTINGS.len() as u64);
                 out.field(setting.name);
                 out.field(setting.kind.name());
-                out.field(setting.unit);
+                out.field(setting.unit());
                 Ok((out, None))
             }
             Verb::Raw => {

@@ -120,10 +120,12 @@ pub struct Setting {
     pub name: &'static str,
     /// Value type.
     pub kind: Kind,
-    /// Unit as shown to the operator, ASCII (empty: dimensionless or not a number).
-    pub unit: &'static str,
-    /// `user = internal · scale` for [`Kind::F32`] and [`Kind::Vec3`]; 1 otherwise.
-    pub scale: f64,
+    /// Unit as shown to the operator ([`Setting::unit`]): its index in [`UNITS`] (one byte
+    /// instead of a string reference: the table's size in flash).
+    unit: u8,
+    /// `user = internal · scale` for [`Kind::F32`] and [`Kind::Vec3`]; [`Scale::One`]
+    /// otherwise.
+    pub scale: Scale,
     /// Smallest valid value per component, user units ([`Kind::F32`], [`Kind::Vec3`],
     /// [`Kind::U16`]). `f32` (the table's size in flash); a parsed value is compared after
     /// its rounding to `f32`, so a limit such as 0.1 is the `f32` nearest to it.
@@ -141,15 +143,118 @@ impl core::fmt::Debug for Setting {
 /// `(°/s)` per `rad/s`, and friends.
 const DEG: f64 = 180.0 / core::f64::consts::PI;
 
+/// The unit conversions of the table: `user = internal · factor`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Scale {
+    /// 1.
+    One,
+    /// rad → ° (and rad/s → °/s).
+    Deg,
+    /// (rad/s)² → (°/s)².
+    Deg2,
+    /// rad/s → °/h.
+    DegH,
+    /// V → mV.
+    Milli,
+}
+
+impl Scale {
+    /// The factor (a constant: for the documentation and the host).
+    pub const fn factor(self) -> f64 {
+        const DEG2: f64 = DEG * DEG;
+        const DEG_H: f64 = DEG * 3600.0;
+        match self {
+            Scale::One => 1.0,
+            Scale::Deg => DEG,
+            Scale::Deg2 => DEG2,
+            Scale::DegH => DEG_H,
+            Scale::Milli => 1000.0,
+        }
+    }
+
+    /// The scale whose factor is `f` (for the table, at compile time: another factor fails
+    /// the build).
+    const fn of(f: f64) -> Scale {
+        let all = [Scale::One, Scale::Deg, Scale::Deg2, Scale::DegH, Scale::Milli];
+        let mut i = 0;
+        while i < all.len() {
+            if all[i].factor() == f {
+                return all[i];
+            }
+            i += 1;
+        }
+        panic!("scale missing from Scale")
+    }
+
+    /// The factor, exactly, for the integer arithmetic of [`Ext`].
+    pub fn ext(self) -> Ext {
+        const EXT: [Ext; 5] = [
+            Ext::from_f64(Scale::One.factor()),
+            Ext::from_f64(Scale::Deg.factor()),
+            Ext::from_f64(Scale::Deg2.factor()),
+            Ext::from_f64(Scale::DegH.factor()),
+            Ext::from_f64(Scale::Milli.factor()),
+        ];
+        EXT.get(self as usize).copied().unwrap_or(Ext::ZERO)
+    }
+}
+
+/// The units of the table ([`Setting::unit`]).
+pub const UNITS: [&str; 18] = [
+    "",
+    "(deg/s)2",
+    "(deg/s)2/s",
+    "Hz",
+    "g2",
+    "s",
+    "deg",
+    "deg/s",
+    "deg/h",
+    "g",
+    "uT",
+    "m",
+    "V",
+    "mV/(deg/s)",
+    "Pa/V",
+    "Pa",
+    "kg/m3",
+    "m/s2",
+];
+
+/// The index of `unit` in [`UNITS`] (for the table, at compile time: a unit missing from
+/// [`UNITS`] fails the build).
+const fn unit_index(unit: &str) -> u8 {
+    let (u, mut i) = (unit.as_bytes(), 0);
+    while i < UNITS.len() {
+        let c = UNITS[i].as_bytes();
+        if c.len() == u.len() {
+            let mut k = 0;
+            while k < u.len() && c[k] == u[k] {
+                k += 1;
+            }
+            if k == u.len() {
+                return i as u8;
+            }
+        }
+        i += 1;
+    }
+    panic!("unit missing from UNITS")
+}
+
 impl Setting {
     /// [`Setting::min`] and [`Setting::max`].
     pub fn range(&self) -> (f32, f32) {
         (self.min, self.max)
     }
 
-    /// [`Setting::scale`], exactly (its bits: no `f64` arithmetic).
+    /// [`Setting::scale`], exactly.
     pub fn scale_ext(&self) -> Ext {
-        Ext::from_f64(self.scale)
+        self.scale.ext()
+    }
+
+    /// Unit as shown to the operator, ASCII (empty: dimensionless or not a number).
+    pub fn unit(&self) -> &'static str {
+        UNITS.get(usize::from(self.unit)).copied().unwrap_or("")
     }
 
     /// The current value (internal units).
@@ -385,7 +490,7 @@ impl Setting {
             "| `{}` | {} | {} | {} | {} | `{}` | {} |",
             self.name,
             self.kind.name(),
-            self.unit,
+            self.unit(),
             ascii(&lo, nl),
             ascii(&hi, nh),
             default.body(),
@@ -427,10 +532,6 @@ pub fn find(name: &str) -> Option<&'static Setting> {
 /// The setting with flash id `id`.
 pub fn by_id(id: u16) -> Option<&'static Setting> {
     SETTINGS.iter().find(|s| s.id == id)
-}
-
-pub(crate) const fn deg() -> f64 {
-    DEG
 }
 
 #[cfg(test)]

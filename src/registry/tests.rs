@@ -18,7 +18,7 @@ fn ids_and_names_are_unique_and_wire_safe() {
             "{}",
             a.name
         );
-        assert!(a.unit.is_ascii() && !a.unit.contains('|'));
+        assert!(a.unit().is_ascii() && !a.unit().contains('|'));
         for b in SETTINGS.iter().skip(i + 1) {
             assert_ne!(a.id, b.id, "{} / {}", a.name, b.name);
             assert!(!a.name.eq_ignore_ascii_case(b.name));
@@ -27,7 +27,7 @@ fn ids_and_names_are_unique_and_wire_safe() {
         assert_eq!(find(&a.name.to_ascii_uppercase()).map(|s| s.id), Some(a.id));
         assert_eq!(by_id(a.id).map(|s| s.name), Some(a.name));
         assert!(a.min <= a.max);
-        assert!(a.scale > 0.0);
+        assert!(a.scale.factor() > 0.0);
     }
     assert!(find("no.such").is_none());
 }
@@ -62,8 +62,8 @@ fn every_setting_is_independent_of_the_others() {
     let d = PipelineSettings::default();
     for s in &SETTINGS {
         let v = match s.get(&d) {
-            Value::F32(_) => Value::F32((f64::from(s.max) / s.scale) as f32),
-            Value::Vec3(_) => Value::Vec3([(f64::from(s.min) / s.scale) as f32; 3]),
+            Value::F32(_) => Value::F32((f64::from(s.max) / s.scale.factor()) as f32),
+            Value::Vec3(_) => Value::Vec3([(f64::from(s.min) / s.scale.factor()) as f32; 3]),
             Value::Bool(b) => Value::Bool(!b),
             Value::U16(_) => Value::U16(s.max as u16),
             Value::Axes(m) => {
