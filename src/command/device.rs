@@ -548,7 +548,8 @@ impl Device {
 
     /// Make `new` the settings; an action when they changed.
     fn commit(&mut self, new: PipelineSettings) -> Option<Action> {
-        if new == self.settings {
+        // Through the registry: the derived comparison costs ≈ 0.9 KB of flash.
+        if registry::same(&new, &self.settings, None) {
             return None;
         }
         let filter_rate_changed = new.filter_rate_hz != self.settings.filter_rate_hz;

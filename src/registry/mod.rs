@@ -524,6 +524,41 @@ fn parse_axes(tokens: [&str; 3]) -> Result<AxisMap, ValueError> {
     AxisMap::new(source, sign).map_err(|_| ValueError::Range)
 }
 
+/// A part of [`PipelineSettings`], by setting id (ids go by tens per section).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Part {
+    /// `filter` (the estimator's settings): ids below 70.
+    Filter,
+    /// `conditioning`: ids 70 to 89.
+    Conditioning,
+    /// Everything else.
+    Other,
+}
+
+impl Setting {
+    /// The part of [`PipelineSettings`] this setting lives in.
+    pub fn part(&self) -> Part {
+        match self.id {
+            0..70 => Part::Filter,
+            70..90 => Part::Conditioning,
+            _ => Part::Other,
+        }
+    }
+}
+
+/// True when every setting (of `part`; all for `None`) has the same value in `a` and `b`,
+/// values compared as the derived `PartialEq` does (`f32` as numbers: −0 = 0, NaN ≠ NaN).
+/// The registry reaches every field that commands and the flash record change, and the other
+/// fields are constant or follow from those (`adc.vref`), so for settings the device derives
+/// from the defaults this is the structs' equality (tested) at a fraction of its code.
+pub fn same(a: &PipelineSettings, b: &PipelineSettings, part: Option<Part>) -> bool {
+    let (mut a, mut b) = (*a, *b);
+    SETTINGS.iter().filter(|s| part.is_none_or(|p| s.part() == p)).all(|s| {
+        let read = |x: &mut PipelineSettings| slot::slot(x, s.id).map(|slot| slot.read());
+        read(&mut a) == read(&mut b)
+    })
+}
+
 /// The setting called `name` (ASCII case-insensitive).
 pub fn find(name: &str) -> Option<&'static Setting> {
     SETTINGS.iter().find(|s| s.name.eq_ignore_ascii_case(name))
