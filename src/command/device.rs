@@ -566,7 +566,8 @@ impl Device {
         let mut out = CycleOutput::default();
         let dt = inputs.dt;
         if dt.is_finite() && dt > 0.0 {
-            // In `f32` (exact to the µs for any cycle under 16 s; `u32`: no 64-bit float conversion).
+            // In `f32` (exact to the µs for any cycle under 16 s); through `u32`: no 64-bit
+            // float-to-integer routine in the firmware.
             self.clock_us = self.clock_us.wrapping_add(u64::from((dt * 1e6 + 0.5) as u32));
             self.depth_age_s += dt;
         }
