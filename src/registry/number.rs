@@ -78,56 +78,40 @@ pub fn format_number(v: Ext, out: &mut [u8; 24]) -> usize {
         nd -= 1;
     }
     let sig = digits.get(..nd).unwrap_or(&[]);
-    if (-5..7).contains(&e) {
-        if e >= 0 {
-            let int_len = e as usize + 1;
-            for k in 0..int_len {
-                w.put(sig.get(k).copied().unwrap_or(b'0'));
-            }
-            if nd > int_len {
-                w.put(b'.');
-                for &d in sig.iter().skip(int_len) {
-                    w.put(d);
-                }
-            }
-        } else {
+    // Plain notation for 1e−5 ≤ |v| < 1e7, else one digit before the point and an exponent.
+    let plain = (-5..7).contains(&e);
+    let point = if plain { e } else { 0 };
+    if point < 0 {
+        w.put(b'0');
+        w.put(b'.');
+        for _ in 0..(-point - 1) {
             w.put(b'0');
-            w.put(b'.');
-            for _ in 0..(-e - 1) {
-                w.put(b'0');
-            }
-            for &d in sig {
-                w.put(d);
-            }
+        }
+        for &d in sig {
+            w.put(d);
         }
     } else {
-        w.put(sig.first().copied().unwrap_or(b'0'));
-        if nd > 1 {
-            w.put(b'.');
-            for &d in sig.iter().skip(1) {
-                w.put(d);
+        let int_len = point as usize + 1;
+        for k in 0..nd.max(int_len) {
+            if k == int_len {
+                w.put(b'.');
             }
+            w.put(sig.get(k).copied().unwrap_or(b'0'));
         }
+    }
+    if !plain {
         w.put(b'e');
         if e < 0 {
             w.put(b'-');
         }
-        let mut ebuf = [0u8; 3];
-        let mut ev = e.unsigned_abs();
-        let mut k = 0;
-        loop {
-            if let Some(slot) = ebuf.get_mut(k) {
-                *slot = b'0' + (ev % 10) as u8;
-            }
-            k += 1;
-            ev /= 10;
-            if ev == 0 || k == ebuf.len() {
-                break;
-            }
+        let ev = e.unsigned_abs();
+        if ev >= 100 {
+            w.put(b'0' + (ev / 100 % 10) as u8);
         }
-        for &d in ebuf.get(..k).unwrap_or(&[]).iter().rev() {
-            w.put(d);
+        if ev >= 10 {
+            w.put(b'0' + (ev / 10 % 10) as u8);
         }
+        w.put(b'0' + (ev % 10) as u8);
     }
     w.len
 }
