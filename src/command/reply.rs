@@ -1,6 +1,7 @@
 //! Reply sentences: `$PINAR,OK,<verb>,...*hh` and `$PINAR,ERR,<verb or ?>,<reason>,...*hh`.
 
 use crate::nmea::Sentence;
+use crate::registry::ext::Ext;
 use crate::registry::{number, Setting, Value};
 
 /// Why a command was refused (the `<reason>` field of an `ERR` reply).
@@ -94,7 +95,7 @@ pub enum Detail {
     /// Nothing.
     None,
     /// The valid range: `,<min>,<max>`.
-    Range(f64, f64),
+    Range(f32, f32),
     /// A count: the expected number of value fields (`args`).
     Count(u32),
     /// The expected type (`type`): `f32`, `f32x3`, `bool`, `u16`, `axes`.
@@ -125,9 +126,15 @@ impl Out {
     }
 
     /// `,<number>` (7 significant digits).
-    pub fn num(&mut self, v: f64) {
+    pub fn num(&mut self, v: Ext) {
         let _ = self.s.push_str(",");
         let _ = number::push_number(&mut self.s, v);
+    }
+
+    /// `,<number>` (7 significant digits; empty for NaN and infinities).
+    pub fn num_f32(&mut self, v: f32) {
+        let _ = self.s.push_str(",");
+        let _ = number::push_f32(&mut self.s, v);
     }
 
     /// `,<integer>`.
@@ -172,9 +179,9 @@ impl Out {
             Detail::None => Ok(()),
             Detail::Range(lo, hi) => {
                 let _ = with_detail.push_str(",");
-                let _ = number::push_number(&mut with_detail, lo);
+                let _ = number::push_f32(&mut with_detail, lo);
                 let _ = with_detail.push_str(",");
-                number::push_number(&mut with_detail, hi)
+                number::push_f32(&mut with_detail, hi)
             }
             Detail::Count(n) => {
                 let _ = with_detail.push_str(",");

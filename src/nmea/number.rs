@@ -44,17 +44,25 @@ pub fn round_scaled(value: f32, decimals: u8) -> Option<i64> {
     if !(mathf::abs(s) < 4.0e18) {
         return None;
     }
-    // Truncation toward zero, then the fraction, exactly: below 2^23, t and s are within a
-    // factor of two (or t = 0); above, s is integral.
-    let t = s as i64;
-    let frac = s - t as f32;
-    Some(if frac >= 0.5 {
-        t + 1
-    } else if frac <= -0.5 {
-        t - 1
-    } else {
-        t
-    })
+    // Below 2^23 (in `i32` range): truncation toward zero, then the fraction, exactly (t and
+    // s are within a factor of two, or t = 0). From 2^23 on, s is an integer: read from its
+    // bits (no 64-bit float conversion, which the soft-float library does through `f64`).
+    if mathf::abs(s) < 8_388_608.0 {
+        let t = s as i32;
+        let frac = s - t as f32;
+        let t = i64::from(t);
+        return Some(if frac >= 0.5 {
+            t + 1
+        } else if frac <= -0.5 {
+            t - 1
+        } else {
+            t
+        });
+    }
+    // 2^23 ≤ |s| < 4·10^18 < 2^62: biased exponent 150..=188.
+    let b = s.to_bits();
+    let mag = i64::from(b & 0x7F_FFFF | 0x80_0000) << (((b >> 23) & 0xFF).saturating_sub(150) & 63);
+    Some(if b >> 31 != 0 { -mag } else { mag })
 }
 
 impl Sentence {
@@ -177,6 +185,23 @@ mod tests {
         assert_eq!(round_scaled(f32::NAN, 2), None);
         assert_eq!(round_scaled(f32::INFINITY, 2), None);
         assert_eq!(round_scaled(1.0e17, 2), None);
+        assert_eq!(round_scaled(-8_388_608.0, 0), Some(-8_388_608));
+        assert_eq!(round_scaled(8_388_607.5, 0), Some(8_388_608));
+        assert_eq!(round_scaled(2_305_843_009_213_693_952.0, 0), Some(1 << 61));
+        assert_eq!(round_scaled(-1.0e12, 0), Some(-999_999_995_904));
+        // Against the f64 route, over the whole range.
+        let mut x: u32 = 99;
+        for _ in 0..200_000 {
+            x = x.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            let v = f32::from_bits(x);
+            let s = v * 100.0;
+            let want = (mathf::abs(s) < 4.0e18).then(|| {
+                let r = f64::from(s).abs().floor()
+                    + if f64::from(s).abs().fract() >= 0.5 { 1.0 } else { 0.0 };
+                (r.copysign(f64::from(s))) as i64
+            });
+            assert_eq!(round_scaled(v, 2), want, "{v:e}");
+        }
     }
 
     #[test]

@@ -283,9 +283,9 @@ fn registry_values_survive_a_save_exactly() {
     let mut s = PipelineSettings::default();
     for (i, e) in crate::registry::SETTINGS.iter().enumerate() {
         let v = match e.get(&s) {
-            Value::F32(_) => {
-                Value::F32((f64::from(if i % 2 == 0 { e.min } else { e.max }) / e.scale) as f32)
-            }
+            Value::F32(_) => Value::F32(
+                (f64::from(if i % 2 == 0 { e.min } else { e.max }) / e.scale.factor()) as f32,
+            ),
             other => other,
         };
         assert!(e.set(&mut s, v), "{}", e.name);

@@ -4,24 +4,20 @@
 //!
 //! Method: the significant digits become an integer mantissa `m` (`u64`, at most 19 digits;
 //! further digits are dropped, a relative error below 1e−18) and a decimal exponent `e`; the
-//! value is `m · 10^e` computed in `f64` with exact powers of ten `10^0 … 10^22`: one
-//! multiplication or division when `|e| ≤ 22` (then correctly rounded whenever `m < 2^53`,
-//! i.e. for up to 15 significant digits), else repeated steps of `10^22`.
+//! value is `m · 10^e` computed in [`Ext`] (64-bit mantissa, integer arithmetic only: no `f64`
+//! soft-float in the firmware) with exact powers of ten `10^0 … 10^27`: one multiplication or
+//! division when `|e| ≤ 27`, else repeated steps of `10^27`.
 //!
-//! Accuracy: every step rounds once (half an ulp of `f64`): the mantissa conversion (exact
-//! below 2^53), then one operation per power of ten. Any number in `f32`'s range written with
-//! at most 19 significant digits needs at most three operations (|e| ≤ 66): relative error
-//! below 2 ulp of `f64` (< 4.5e−16), tested against `str::parse::<f64>`. Converted to `f32`
-//! (what the settings store) the result equals `str::parse::<f32>` except when the decimal
-//! lies within that error of the midpoint between two `f32` values (double rounding); then it
-//! is the other neighbour: at most 1 ulp of `f32` off (tested, with a proptest). Decimals of
-//! up to 15 significant digits with |e| ≤ 22 are correctly rounded (one operation).
+//! Accuracy: `m` is exact and one operation keeps everything it drops as a sticky bit, so for
+//! `|e| ≤ 27` (every decimal of up to 19 significant digits between about 1e−8 and 1e27)
+//! rounding the result to `f32` or `f64` is correctly rounded: equal to `str::parse` (tested).
+//! Any number in `f32`'s range written with at most 19 significant digits needs at most three
+//! operations (|e| ≤ 81): relative error below 2^−61 before the final rounding, so the `f32`
+//! the settings store equals `str::parse::<f32>` except when the decimal lies within that
+//! error of the midpoint between two `f32` values; then it is the other neighbour, 1 ulp off
+//! (tested against core's parsers, with proptests).
 
-/// Powers of ten exact in `f64`: 10^k = 5^k · 2^k is exact while 5^k < 2^53, i.e. k ≤ 22.
-const POW10: [f64; 23] = [
-    1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15, 1e16,
-    1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
-];
+use super::ext::Ext;
 
 /// Most significant digits kept in the mantissa (10^19 − 1 < 2^64).
 const MAX_DIGITS: u32 = 19;
@@ -30,7 +26,7 @@ const MAX_DIGITS: u32 = 19;
 /// all), optional exponent (`e`/`E`, optional sign, at least one digit). `None` for anything
 /// else (`inf`, `nan`, hex, spaces, empty). A number too large for `f64` parses as infinite,
 /// one too small as zero; the caller checks the range.
-pub fn parse_number(text: &str) -> Option<f64> {
+pub fn parse_number(text: &str) -> Option<Ext> {
     let b = text.as_bytes();
     let mut i = 0;
     let at = |i: usize| b.get(i).copied();
@@ -91,36 +87,8 @@ pub fn parse_number(text: &str) -> Option<f64> {
     if i != b.len() {
         return None;
     }
-    let magnitude = scale(mantissa, exp10);
-    Some(if negative { -magnitude } else { magnitude })
-}
-
-/// `m · 10^e` in `f64`.
-fn scale(m: u64, mut e: i32) -> f64 {
-    let mut v = m as f64;
-    if m == 0 {
-        return 0.0;
-    }
-    while e > 22 {
-        v *= POW10[22];
-        e -= 22;
-        if v.is_infinite() {
-            return v;
-        }
-    }
-    while e < -22 {
-        v /= POW10[22];
-        e += 22;
-        if v == 0.0 {
-            return v;
-        }
-    }
-    let p = POW10.get(e.unsigned_abs() as usize).copied().unwrap_or(1.0);
-    if e >= 0 {
-        v * p
-    } else {
-        v / p
-    }
+    let magnitude = Ext::from_u64(mantissa).scale10(exp10);
+    Some(if negative { magnitude.negated() } else { magnitude })
 }
 
 #[cfg(test)]
@@ -144,17 +112,34 @@ mod tests {
     fn check(text: &str) {
         let ours = parse_number(text).unwrap_or_else(|| panic!("{text:?} refused"));
         let exact: f64 = text.parse().unwrap();
+        let ours64 = ours.to_f64();
         if exact.is_finite() && exact.abs() >= f64::MIN_POSITIVE {
-            let rel = ((ours - exact) / exact).abs();
-            assert!(rel <= 4.0 * f64::EPSILON, "{text}: {ours:e} vs {exact:e}");
+            let rel = ((ours64 - exact) / exact).abs();
+            assert!(rel <= f64::EPSILON, "{text}: {ours64:e} vs {exact:e}");
         } else if exact.is_infinite() {
-            assert!(ours.is_infinite() || ours.abs() >= f64::MAX / 4.0, "{text}: {ours:e}");
+            assert!(ours64.is_infinite() || ours64.abs() >= f64::MAX / 2.0, "{text}: {ours64:e}");
         }
         let want32: f32 = text.parse().unwrap();
-        let got32 = ours as f32;
-        if want32.is_finite() && got32.is_finite() {
-            assert!(ulps_f32(got32, want32) <= 1, "{text}: f32 {got32:e} vs {want32:e}");
+        let got32 = ours.to_f32();
+        assert!(ulps_f32(got32, want32) <= 1, "{text}: f32 {got32:e} vs {want32:e}");
+        // One operation (|exponent| ≤ 27 after the digits are taken): correctly rounded.
+        if single_step(text) {
+            assert_eq!(got32, want32, "{text}");
+            assert_eq!(ours64, exact, "{text}");
         }
+    }
+
+    /// True when the text's value is `m · 10^e` with at most 19 digits in `m` and |e| ≤ 27.
+    fn single_step(text: &str) -> bool {
+        let t = text.trim_start_matches(['+', '-']);
+        let (num, exp) = match t.find(['e', 'E']) {
+            Some(k) => (&t[..k], t[k + 1..].parse::<i64>().unwrap()),
+            None => (t, 0),
+        };
+        let (int, frac) = num.split_once('.').unwrap_or((num, ""));
+        let all = format!("{int}{frac}");
+        let digits = all.trim_start_matches('0');
+        digits.len() <= 19 && (exp - frac.len() as i64).abs() <= 27
     }
 
     #[test]
@@ -204,12 +189,14 @@ mod tests {
         ] {
             check(t);
         }
-        assert_eq!(parse_number("0.05"), Some(0.05));
-        assert_eq!(parse_number("-1e3"), Some(-1000.0));
-        assert_eq!(parse_number("1e999"), Some(f64::INFINITY));
-        assert_eq!(parse_number("-1e999"), Some(f64::NEG_INFINITY));
-        assert_eq!(parse_number("1e-999"), Some(0.0));
-        assert_eq!(parse_number("1e99999999999"), Some(f64::INFINITY));
+        let p = |t: &str| parse_number(t).map(Ext::to_f64);
+        assert_eq!(p("0.05"), Some(0.05));
+        assert_eq!(p("-1e3"), Some(-1000.0));
+        assert_eq!(p("1e999"), Some(f64::INFINITY));
+        assert_eq!(p("-1e999"), Some(f64::NEG_INFINITY));
+        assert_eq!(p("1e-999"), Some(0.0));
+        assert_eq!(p("1e99999999999"), Some(f64::INFINITY));
+        assert_eq!(p("1e-99999999999"), Some(0.0));
     }
 
     #[test]
@@ -223,16 +210,18 @@ mod tests {
     }
 
     #[test]
-    fn up_to_fifteen_digits_with_small_exponents_are_correctly_rounded() {
+    fn up_to_nineteen_digits_with_small_exponents_are_correctly_rounded() {
         let mut x: u64 = 0x1234_5678_9abc_def1;
         for _ in 0..50_000 {
             x ^= x << 13;
             x ^= x >> 7;
             x ^= x << 17;
-            let m = x % 1_000_000_000_000_000;
-            let e = (x >> 50) as i32 % 23 - 11;
+            let m = x % 10_000_000_000_000_000_000;
+            let e = (x >> 50) as i32 % 28 - 14;
             let t = format!("{m}e{e}");
-            assert_eq!(parse_number(&t), t.parse::<f64>().ok(), "{t}");
+            let ours = parse_number(&t).unwrap();
+            assert_eq!(ours.to_f64(), t.parse::<f64>().unwrap(), "{t}");
+            assert_eq!(ours.to_f32(), t.parse::<f32>().unwrap(), "{t}");
         }
     }
 
@@ -263,7 +252,7 @@ mod tests {
             prop_assume!(v.is_finite());
             for t in [format!("{v}"), format!("{v:e}"), format!("{v:.8e}")] {
                 check(&t);
-                prop_assert_eq!(parse_number(&t).unwrap() as f32, v, "{}", t);
+                prop_assert_eq!(parse_number(&t).unwrap().to_f32(), v, "{}", t);
             }
         }
     }

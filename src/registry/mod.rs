@@ -9,13 +9,15 @@
 //!
 //! Units. The wire uses the operator's units — degrees, °/s, °/h, g, mV/(°/s) — written in
 //! ASCII ([`Setting::unit`]: `deg`, `deg/s`, `deg/h`, ...). `PipelineSettings` stores SI/rad
-//! values; [`Setting::scale`] converts (`user = internal · scale`, in `f64`). Ranges
+//! values; [`Setting::scale`] converts (`user = internal · scale`, computed in [`ext::Ext`]:
+//! a 64-bit mantissa in integer arithmetic, no `f64` soft-float on the target). Ranges
 //! ([`Setting::min`], [`Setting::max`]) are in user units, inclusive, and apply to every
 //! component of a vector. Values are printed with 7 significant digits
 //! ([`number::push_number`]); flash keeps the internal `f32` bits, so a save and a load are
 //! exact.
 
 mod decimal;
+pub mod ext;
 pub mod number;
 mod slot;
 mod table;
@@ -23,6 +25,9 @@ mod table;
 pub use table::SETTINGS;
 
 use ekf_core::axis_map::AxisMap;
+use ekf_core::mathf;
+
+use ext::Ext;
 
 use crate::nmea::{NmeaError, Sentence};
 use crate::pipeline::PipelineSettings;
@@ -115,13 +120,15 @@ pub struct Setting {
     pub name: &'static str,
     /// Value type.
     pub kind: Kind,
-    /// Unit as shown to the operator, ASCII (empty: dimensionless or not a number).
-    pub unit: &'static str,
-    /// `user = internal · scale` for [`Kind::F32`] and [`Kind::Vec3`]; 1 otherwise.
-    pub scale: f64,
+    /// Unit as shown to the operator ([`Setting::unit`]): its index in [`UNITS`] (one byte
+    /// instead of a string reference: the table's size in flash).
+    unit: u8,
+    /// `user = internal · scale` for [`Kind::F32`] and [`Kind::Vec3`]; [`Scale::One`]
+    /// otherwise.
+    pub scale: Scale,
     /// Smallest valid value per component, user units ([`Kind::F32`], [`Kind::Vec3`],
-    /// [`Kind::U16`]). `f32` (the table's size in flash); compared in `f64` after the
-    /// conversion, so a limit such as 0.1 is the `f32` nearest to it.
+    /// [`Kind::U16`]). `f32` (the table's size in flash); a parsed value is compared after
+    /// its rounding to `f32`, so a limit such as 0.1 is the `f32` nearest to it.
     pub min: f32,
     /// Largest valid value per component, user units.
     pub max: f32,
@@ -136,10 +143,118 @@ impl core::fmt::Debug for Setting {
 /// `(°/s)` per `rad/s`, and friends.
 const DEG: f64 = 180.0 / core::f64::consts::PI;
 
+/// The unit conversions of the table: `user = internal · factor`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Scale {
+    /// 1.
+    One,
+    /// rad → ° (and rad/s → °/s).
+    Deg,
+    /// (rad/s)² → (°/s)².
+    Deg2,
+    /// rad/s → °/h.
+    DegH,
+    /// V → mV.
+    Milli,
+}
+
+impl Scale {
+    /// The factor (a constant: for the documentation and the host).
+    pub const fn factor(self) -> f64 {
+        const DEG2: f64 = DEG * DEG;
+        const DEG_H: f64 = DEG * 3600.0;
+        match self {
+            Scale::One => 1.0,
+            Scale::Deg => DEG,
+            Scale::Deg2 => DEG2,
+            Scale::DegH => DEG_H,
+            Scale::Milli => 1000.0,
+        }
+    }
+
+    /// The scale whose factor is `f` (for the table, at compile time: another factor fails
+    /// the build).
+    const fn of(f: f64) -> Scale {
+        let all = [Scale::One, Scale::Deg, Scale::Deg2, Scale::DegH, Scale::Milli];
+        let mut i = 0;
+        while i < all.len() {
+            if all[i].factor() == f {
+                return all[i];
+            }
+            i += 1;
+        }
+        panic!("scale missing from Scale")
+    }
+
+    /// The factor, exactly, for the integer arithmetic of [`Ext`].
+    pub fn ext(self) -> Ext {
+        const EXT: [Ext; 5] = [
+            Ext::from_f64(Scale::One.factor()),
+            Ext::from_f64(Scale::Deg.factor()),
+            Ext::from_f64(Scale::Deg2.factor()),
+            Ext::from_f64(Scale::DegH.factor()),
+            Ext::from_f64(Scale::Milli.factor()),
+        ];
+        EXT.get(self as usize).copied().unwrap_or(Ext::ZERO)
+    }
+}
+
+/// The units of the table ([`Setting::unit`]).
+pub const UNITS: [&str; 18] = [
+    "",
+    "(deg/s)2",
+    "(deg/s)2/s",
+    "Hz",
+    "g2",
+    "s",
+    "deg",
+    "deg/s",
+    "deg/h",
+    "g",
+    "uT",
+    "m",
+    "V",
+    "mV/(deg/s)",
+    "Pa/V",
+    "Pa",
+    "kg/m3",
+    "m/s2",
+];
+
+/// The index of `unit` in [`UNITS`] (for the table, at compile time: a unit missing from
+/// [`UNITS`] fails the build).
+const fn unit_index(unit: &str) -> u8 {
+    let (u, mut i) = (unit.as_bytes(), 0);
+    while i < UNITS.len() {
+        let c = UNITS[i].as_bytes();
+        if c.len() == u.len() {
+            let mut k = 0;
+            while k < u.len() && c[k] == u[k] {
+                k += 1;
+            }
+            if k == u.len() {
+                return i as u8;
+            }
+        }
+        i += 1;
+    }
+    panic!("unit missing from UNITS")
+}
+
 impl Setting {
-    /// [`Setting::min`] and [`Setting::max`] as `f64`.
-    pub fn range(&self) -> (f64, f64) {
-        (f64::from(self.min), f64::from(self.max))
+    /// [`Setting::min`] and [`Setting::max`].
+    pub fn range(&self) -> (f32, f32) {
+        (self.min, self.max)
+    }
+
+    /// [`Setting::scale`], exactly.
+    pub fn scale_ext(&self) -> Ext {
+        self.scale.ext()
+    }
+
+    /// Unit as shown to the operator, ASCII (empty: dimensionless or not a number).
+    pub fn unit(&self) -> &'static str {
+        UNITS.get(usize::from(self.unit)).copied().unwrap_or("")
     }
 
     /// The current value (internal units).
@@ -175,17 +290,17 @@ impl Setting {
     /// get a relative slack of 1e−6 so that a stored internal value at a limit passes.
     pub fn check(&self, v: &Value) -> bool {
         let (min, max) = self.range();
-        let slack = 1e-6 * min.abs().max(max.abs()).max(1.0);
+        let slack = 1e-6 * mathf::abs(min).max(mathf::abs(max)).max(1.0);
         let in_range = |x: f32| {
             x.is_finite() && {
-                let u = f64::from(x) * self.scale;
+                let u = Ext::from_f32(x).times(self.scale_ext()).to_f32();
                 u >= min - slack && u <= max + slack
             }
         };
         match (*v, self.kind) {
             (Value::F32(x), Kind::F32) => in_range(x),
             (Value::Vec3(x), Kind::Vec3) => x.iter().all(|&c| in_range(c)),
-            (Value::U16(x), Kind::U16) => f64::from(x) >= min && f64::from(x) <= max,
+            (Value::U16(x), Kind::U16) => f32::from(x) >= min && f32::from(x) <= max,
             (Value::Bool(_), Kind::Bool) | (Value::Axes(_), Kind::Axes) => true,
             _ => false,
         }
@@ -219,7 +334,8 @@ impl Setting {
             Kind::U16 => {
                 let n = number::parse_uint(f(0)).ok_or(ValueError::Type)?;
                 let (min, max) = self.range();
-                if f64::from(n) < min || f64::from(n) > max {
+                // n < 10^9; the limits are integers below 2^24, exact in `f32`.
+                if (n as f32) < min || (n as f32) > max {
                     return Err(ValueError::Range);
                 }
                 u16::try_from(n).map(Value::U16).map_err(|_| ValueError::Range)
@@ -231,11 +347,11 @@ impl Setting {
     fn parse_scaled(&self, text: &str) -> Result<f32, ValueError> {
         let u = number::parse_number(text).ok_or(ValueError::Type)?;
         // In `f32`: the limits are `f32` (a value typed as the limit passes).
-        let user = u as f32;
-        if !(u.is_finite() && user >= self.min && user <= self.max) {
+        let user = u.to_f32();
+        if !(user.is_finite() && user >= self.min && user <= self.max) {
             return Err(ValueError::Range);
         }
-        let internal = (u / self.scale) as f32;
+        let internal = u.over(self.scale_ext()).to_f32();
         if !internal.is_finite() {
             return Err(ValueError::Range);
         }
@@ -245,13 +361,13 @@ impl Setting {
     /// Append `v` (internal units) as comma-separated fields in user units.
     pub fn write_value(&self, v: &Value, out: &mut Sentence) -> Result<(), NmeaError> {
         match *v {
-            Value::F32(x) => number::push_number(out, f64::from(x) * self.scale),
+            Value::F32(x) => number::push_scaled(out, x, self.scale_ext()),
             Value::Vec3(x) => {
                 for (i, c) in x.iter().enumerate() {
                     if i > 0 {
                         out.push_str(",")?;
                     }
-                    number::push_number(out, f64::from(*c) * self.scale)?;
+                    number::push_scaled(out, *c, self.scale_ext())?;
                 }
                 Ok(())
             }
@@ -362,7 +478,10 @@ impl Setting {
         let mut hi = [0u8; 24];
         let (nl, nh) = if range {
             let (min, max) = self.range();
-            (number::format_number(min, &mut lo), number::format_number(max, &mut hi))
+            (
+                number::format_number(Ext::from_f32(min), &mut lo),
+                number::format_number(Ext::from_f32(max), &mut hi),
+            )
         } else {
             (0, 0)
         };
@@ -371,7 +490,7 @@ impl Setting {
             "| `{}` | {} | {} | {} | {} | `{}` | {} |",
             self.name,
             self.kind.name(),
-            self.unit,
+            self.unit(),
             ascii(&lo, nl),
             ascii(&hi, nh),
             default.body(),
@@ -405,6 +524,41 @@ fn parse_axes(tokens: [&str; 3]) -> Result<AxisMap, ValueError> {
     AxisMap::new(source, sign).map_err(|_| ValueError::Range)
 }
 
+/// A part of [`PipelineSettings`], by setting id (ids go by tens per section).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Part {
+    /// `filter` (the estimator's settings): ids below 70.
+    Filter,
+    /// `conditioning`: ids 70 to 89.
+    Conditioning,
+    /// Everything else.
+    Other,
+}
+
+impl Setting {
+    /// The part of [`PipelineSettings`] this setting lives in.
+    pub fn part(&self) -> Part {
+        match self.id {
+            0..70 => Part::Filter,
+            70..90 => Part::Conditioning,
+            _ => Part::Other,
+        }
+    }
+}
+
+/// True when every setting (of `part`; all for `None`) has the same value in `a` and `b`,
+/// values compared as the derived `PartialEq` does (`f32` as numbers: −0 = 0, NaN ≠ NaN).
+/// The registry reaches every field that commands and the flash record change, and the other
+/// fields are constant or follow from those (`adc.vref`), so for settings the device derives
+/// from the defaults this is the structs' equality (tested) at a fraction of its code.
+pub fn same(a: &PipelineSettings, b: &PipelineSettings, part: Option<Part>) -> bool {
+    let (mut a, mut b) = (*a, *b);
+    SETTINGS.iter().filter(|s| part.is_none_or(|p| s.part() == p)).all(|s| {
+        let read = |x: &mut PipelineSettings| slot::slot(x, s.id).map(|slot| slot.read());
+        read(&mut a) == read(&mut b)
+    })
+}
+
 /// The setting called `name` (ASCII case-insensitive).
 pub fn find(name: &str) -> Option<&'static Setting> {
     SETTINGS.iter().find(|s| s.name.eq_ignore_ascii_case(name))
@@ -413,10 +567,6 @@ pub fn find(name: &str) -> Option<&'static Setting> {
 /// The setting with flash id `id`.
 pub fn by_id(id: u16) -> Option<&'static Setting> {
     SETTINGS.iter().find(|s| s.id == id)
-}
-
-pub(crate) const fn deg() -> f64 {
-    DEG
 }
 
 #[cfg(test)]

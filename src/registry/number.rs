@@ -2,6 +2,7 @@
 //! `decimal.rs`), an integer parser and a 7-significant-digit writer (no `core::fmt` float
 //! formatting, so the host and the Cortex-M3 print the same bytes).
 
+use super::ext::Ext;
 use crate::nmea::{NmeaError, Sentence};
 
 /// Significant digits printed by [`push_number`] (an `f32` holds about 7.2).
@@ -18,46 +19,55 @@ pub fn parse_uint(text: &str) -> Option<u32> {
     Some(digits.bytes().fold(0u32, |n, c| n * 10 + u32::from(c - b'0')))
 }
 
-/// Write `v` with [`SIGNIFICANT_DIGITS`] significant digits, trailing zeros removed: plain
-/// notation for 1e−5 ≤ |v| < 1e7 (`0.05`, `-12.5`, `1234567`), otherwise `d.dddddde±x`
-/// (`2.376e-6`). Zero prints as `0`; NaN and infinities leave the field empty. At most 13
-/// characters.
-pub fn push_number(s: &mut Sentence, v: f64) -> Result<(), NmeaError> {
+/// Write `v` with [`SIGNIFICANT_DIGITS`] significant digits (rounded half away from zero),
+/// trailing zeros removed: plain notation for 1e−5 ≤ |v| < 1e7 (`0.05`, `-12.5`, `1234567`),
+/// otherwise `d.dddddde±x` (`2.376e-6`). Zero prints as `0`. At most 13 characters.
+pub fn push_number(s: &mut Sentence, v: Ext) -> Result<(), NmeaError> {
     let mut buf = [0u8; 24];
     let n = format_number(v, &mut buf);
     s.push_bytes(buf.get(..n).unwrap_or(&[]))
 }
 
-/// [`push_number`] into a byte buffer; returns the length.
-pub fn format_number(v: f64, out: &mut [u8; 24]) -> usize {
-    let mut w = Writer { out, len: 0 };
+/// [`push_number`] of `v · scale` (`v` an `f32`, `scale` exact as [`Ext`]); NaN and
+/// infinities leave the field empty.
+pub fn push_scaled(s: &mut Sentence, v: f32, scale: Ext) -> Result<(), NmeaError> {
     if !v.is_finite() {
-        return 0;
+        return s.push_bytes(&[]);
     }
-    if v == 0.0 {
+    push_number(s, Ext::from_f32(v).times(scale))
+}
+
+/// [`push_scaled`] with scale 1.
+pub fn push_f32(s: &mut Sentence, v: f32) -> Result<(), NmeaError> {
+    push_scaled(s, v, Ext::from_u64(1))
+}
+
+/// The seven significant digits of `a` (not zero) and the decimal exponent `e` of the first:
+/// `a ≈ m · 10^(e−6)`, `10^6 ≤ m < 10^7`.
+fn digits7(a: Ext) -> (u32, i32) {
+    // 2^k ≤ a < 2^(k+1) and ⌊k · log10 2⌋ (to within one: 78913 / 2^18 = 0.3010292) less
+    // one: 10^e ≤ a < 2 · 10^(e+2), so at most three tries.
+    let mut e = ((a.log2() * 78_913) >> 18) - 1;
+    loop {
+        let m = a.scale10(6 - e).round_half_up().unwrap_or(u64::MAX);
+        if m < 10_000_000 || e > 400 {
+            return (m as u32, e);
+        }
+        e += 1;
+    }
+}
+
+/// [`push_number`] into a byte buffer; returns the length.
+pub fn format_number(v: Ext, out: &mut [u8; 24]) -> usize {
+    let mut w = Writer { out, len: 0 };
+    if v.is_zero() {
         w.put(b'0');
         return w.len;
     }
-    if v < 0.0 {
+    if v.is_negative() {
         w.put(b'-');
     }
-    let mut a = if v < 0.0 { -v } else { v };
-    // 10^e ≤ a < 10^(e+1), by repeated scaling (f64 error far below the 7 digits kept).
-    let mut e: i32 = 0;
-    while a >= 10.0 && e < 400 {
-        a /= 10.0;
-        e += 1;
-    }
-    while a < 1.0 && e > -400 {
-        a *= 10.0;
-        e -= 1;
-    }
-    let scale = 10u64.pow(SIGNIFICANT_DIGITS - 1);
-    let mut m = (a * scale as f64 + 0.5) as u64;
-    if m >= scale * 10 {
-        m /= 10;
-        e += 1;
-    }
+    let (mut m, e) = digits7(v.abs());
     let mut digits = [0u8; SIGNIFICANT_DIGITS as usize];
     for d in digits.iter_mut().rev() {
         *d = b'0' + (m % 10) as u8;
@@ -68,56 +78,40 @@ pub fn format_number(v: f64, out: &mut [u8; 24]) -> usize {
         nd -= 1;
     }
     let sig = digits.get(..nd).unwrap_or(&[]);
-    if (-5..7).contains(&e) {
-        if e >= 0 {
-            let int_len = e as usize + 1;
-            for k in 0..int_len {
-                w.put(sig.get(k).copied().unwrap_or(b'0'));
-            }
-            if nd > int_len {
-                w.put(b'.');
-                for &d in sig.iter().skip(int_len) {
-                    w.put(d);
-                }
-            }
-        } else {
+    // Plain notation for 1e−5 ≤ |v| < 1e7, else one digit before the point and an exponent.
+    let plain = (-5..7).contains(&e);
+    let point = if plain { e } else { 0 };
+    if point < 0 {
+        w.put(b'0');
+        w.put(b'.');
+        for _ in 0..(-point - 1) {
             w.put(b'0');
-            w.put(b'.');
-            for _ in 0..(-e - 1) {
-                w.put(b'0');
-            }
-            for &d in sig {
-                w.put(d);
-            }
+        }
+        for &d in sig {
+            w.put(d);
         }
     } else {
-        w.put(sig.first().copied().unwrap_or(b'0'));
-        if nd > 1 {
-            w.put(b'.');
-            for &d in sig.iter().skip(1) {
-                w.put(d);
+        let int_len = point as usize + 1;
+        for k in 0..nd.max(int_len) {
+            if k == int_len {
+                w.put(b'.');
             }
+            w.put(sig.get(k).copied().unwrap_or(b'0'));
         }
+    }
+    if !plain {
         w.put(b'e');
         if e < 0 {
             w.put(b'-');
         }
-        let mut ebuf = [0u8; 3];
-        let mut ev = e.unsigned_abs();
-        let mut k = 0;
-        loop {
-            if let Some(slot) = ebuf.get_mut(k) {
-                *slot = b'0' + (ev % 10) as u8;
-            }
-            k += 1;
-            ev /= 10;
-            if ev == 0 || k == ebuf.len() {
-                break;
-            }
+        let ev = e.unsigned_abs();
+        if ev >= 100 {
+            w.put(b'0' + (ev / 100 % 10) as u8);
         }
-        for &d in ebuf.get(..k).unwrap_or(&[]).iter().rev() {
-            w.put(d);
+        if ev >= 10 {
+            w.put(b'0' + (ev / 10 % 10) as u8);
         }
+        w.put(b'0' + (ev % 10) as u8);
     }
     w.len
 }
@@ -142,7 +136,7 @@ mod tests {
 
     fn text(v: f64) -> String {
         let mut buf = [0u8; 24];
-        let n = format_number(v, &mut buf);
+        let n = format_number(Ext::from_f64(v), &mut buf);
         String::from_utf8(buf[..n].to_vec()).unwrap()
     }
 
@@ -162,12 +156,23 @@ mod tests {
         assert_eq!(text(101_325.0), "101325");
         assert_eq!(text(f64::from(f32::MAX)), "3.402823e38");
         assert_eq!(text(-f64::from(f32::MIN_POSITIVE)), "-1.175494e-38");
-        assert_eq!(text(f64::NAN), "");
+        assert_eq!(text(1_234_567.5), "1234568");
+        assert_eq!(text(1.0e-45), "1e-45");
+        let f = |v: f32, scale: f64| {
+            let mut s = Sentence::new();
+            push_scaled(&mut s, v, Ext::from_f64(scale)).unwrap();
+            s.body().to_string()
+        };
+        assert_eq!(f(f32::NAN, 1.0), "");
+        assert_eq!(f(f32::INFINITY, 1.0), "");
+        assert_eq!(f(0.25, 4.0), "1");
+        assert_eq!(f(-2.5, 1e-3), "-0.0025");
         assert!(text(-1.234_567e-10).len() <= 13);
     }
 
     #[test]
     fn parsing_is_strict() {
+        let parse_number = |t: &str| parse_number(t).map(Ext::to_f64);
         assert_eq!(parse_number("0.05"), Some(0.05));
         assert_eq!(parse_number("-1e3"), Some(-1000.0));
         assert_eq!(parse_number("+.5"), Some(0.5));
@@ -195,7 +200,7 @@ mod tests {
                 continue;
             }
             let t = text(f64::from(v));
-            let back = parse_number(&t).unwrap() as f32;
+            let back = parse_number(&t).unwrap().to_f32();
             let rel = ((back - v) / v.abs().max(f32::MIN_POSITIVE)).abs();
             assert!(rel <= 1e-6 || back == v, "{v:e} -> {t} -> {back:e}");
         }

@@ -1,15 +1,15 @@
 //! The table itself. Ids are grouped by tens per section; an id is never reused.
 
 use super::slot::Slot;
-use super::{deg, Kind, Setting};
+use super::{unit_index, Kind, Scale, Setting};
 use crate::pipeline::PipelineSettings;
 
 /// rad/s → °/s (and rad → °).
-const DEG: f64 = deg();
+const DEG: f64 = Scale::Deg.factor();
 /// (rad/s)² → (°/s)².
-const DEG2: f64 = DEG * DEG;
+const DEG2: f64 = Scale::Deg2.factor();
 /// rad/s → °/h.
-const DEG_H: f64 = DEG * 3600.0;
+const DEG_H: f64 = Scale::DegH.factor();
 
 /// A scaled number field (`f32`).
 macro_rules! num {
@@ -18,8 +18,8 @@ macro_rules! num {
             id: $id,
             name: $name,
             kind: Kind::F32,
-            unit: $unit,
-            scale: $scale,
+            unit: unit_index($unit),
+            scale: Scale::of($scale),
             min: $min,
             max: $max,
         }
@@ -33,8 +33,8 @@ macro_rules! vec3 {
             id: $id,
             name: $name,
             kind: Kind::Vec3,
-            unit: $unit,
-            scale: $scale,
+            unit: unit_index($unit),
+            scale: Scale::of($scale),
             min: $min,
             max: $max,
         }
@@ -44,7 +44,15 @@ macro_rules! vec3 {
 /// A `bool` field.
 macro_rules! flag {
     ($id:literal, $name:literal, $($rest:tt)*) => {
-        Setting { id: $id, name: $name, kind: Kind::Bool, unit: "", scale: 1.0, min: 0.0, max: 1.0 }
+        Setting {
+            id: $id,
+            name: $name,
+            kind: Kind::Bool,
+            unit: 0,
+            scale: Scale::One,
+            min: 0.0,
+            max: 1.0,
+        }
     };
 }
 
@@ -55,8 +63,8 @@ macro_rules! uint {
             id: $id,
             name: $name,
             kind: Kind::U16,
-            unit: $unit,
-            scale: 1.0,
+            unit: unit_index($unit),
+            scale: Scale::One,
             min: $min,
             max: $max,
         }
@@ -66,7 +74,15 @@ macro_rules! uint {
 /// An axis-map field.
 macro_rules! axes {
     ($id:literal, $name:literal, $($rest:tt)*) => {
-        Setting { id: $id, name: $name, kind: Kind::Axes, unit: "", scale: 1.0, min: 0.0, max: 0.0 }
+        Setting {
+            id: $id,
+            name: $name,
+            kind: Kind::Axes,
+            unit: 0,
+            scale: Scale::One,
+            min: 0.0,
+            max: 0.0,
+        }
     };
 }
 

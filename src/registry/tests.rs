@@ -18,7 +18,7 @@ fn ids_and_names_are_unique_and_wire_safe() {
             "{}",
             a.name
         );
-        assert!(a.unit.is_ascii() && !a.unit.contains('|'));
+        assert!(a.unit().is_ascii() && !a.unit().contains('|'));
         for b in SETTINGS.iter().skip(i + 1) {
             assert_ne!(a.id, b.id, "{} / {}", a.name, b.name);
             assert!(!a.name.eq_ignore_ascii_case(b.name));
@@ -27,7 +27,7 @@ fn ids_and_names_are_unique_and_wire_safe() {
         assert_eq!(find(&a.name.to_ascii_uppercase()).map(|s| s.id), Some(a.id));
         assert_eq!(by_id(a.id).map(|s| s.name), Some(a.name));
         assert!(a.min <= a.max);
-        assert!(a.scale > 0.0);
+        assert!(a.scale.factor() > 0.0);
     }
     assert!(find("no.such").is_none());
 }
@@ -62,8 +62,8 @@ fn every_setting_is_independent_of_the_others() {
     let d = PipelineSettings::default();
     for s in &SETTINGS {
         let v = match s.get(&d) {
-            Value::F32(_) => Value::F32((f64::from(s.max) / s.scale) as f32),
-            Value::Vec3(_) => Value::Vec3([(f64::from(s.min) / s.scale) as f32; 3]),
+            Value::F32(_) => Value::F32((f64::from(s.max) / s.scale.factor()) as f32),
+            Value::Vec3(_) => Value::Vec3([(f64::from(s.min) / s.scale.factor()) as f32; 3]),
             Value::Bool(b) => Value::Bool(!b),
             Value::U16(_) => Value::U16(s.max as u16),
             Value::Axes(m) => {
@@ -190,4 +190,59 @@ fn print_doc_rows() {
         s.doc_row(&mut row).unwrap();
         println!("{row}");
     }
+}
+
+/// `same` agrees with the derived `PartialEq` of the whole settings and of `filter` and
+/// `conditioning`, for one setting changed at a time, for several, for −0 against 0 and for NaN.
+#[test]
+fn same_agrees_with_the_derived_equality() {
+    let d = PipelineSettings::default();
+    let agree = |a: &PipelineSettings, b: &PipelineSettings| {
+        assert_eq!(same(a, b, None), a == b);
+        assert_eq!(same(a, b, Some(Part::Filter)), a.filter == b.filter);
+        assert_eq!(same(a, b, Some(Part::Conditioning)), a.conditioning == b.conditioning);
+        let rest = |x: &PipelineSettings| PipelineSettings {
+            filter: d.filter,
+            conditioning: d.conditioning,
+            ..*x
+        };
+        assert_eq!(same(a, b, Some(Part::Other)), rest(a) == rest(b));
+    };
+    agree(&d, &d);
+    let mut several = d;
+    for (k, s) in SETTINGS.iter().enumerate() {
+        // Another valid value: the other end of the range, the other bool, a swapped axis map.
+        let v = match s.get(&d) {
+            Value::F32(_) | Value::Vec3(_) | Value::U16(_) => {
+                let text = |x: f32| {
+                    let mut t = Sentence::new();
+                    number::push_f32(&mut t, x).unwrap();
+                    t.body().to_string()
+                };
+                let fields: Vec<String> = (0..s.kind.fields())
+                    .map(|i| text(if i == 0 { s.max } else { s.min }))
+                    .collect();
+                let refs: Vec<&str> = fields.iter().map(String::as_str).collect();
+                s.parse(&refs).unwrap()
+            }
+            Value::Bool(b) => Value::Bool(!b),
+            Value::Axes(_) => Value::Axes(AxisMap::new([1, 0, 2], [1, 1, -1]).unwrap()),
+        };
+        let mut one = d;
+        assert!(s.set(&mut one, v), "{}", s.name);
+        agree(&d, &one);
+        agree(&one, &d);
+        if k % 3 == 0 {
+            assert!(s.set(&mut several, v));
+            agree(&d, &several);
+        }
+    }
+    // −0 = 0 and NaN ≠ NaN, as for f32.
+    let (mut z, mut n) = (d, d);
+    z.filter.init.initial_yaw = 0.0;
+    n.filter.init.initial_yaw = -0.0;
+    agree(&z, &n);
+    n.filter.init.initial_yaw = f32::NAN;
+    agree(&n, &n);
+    agree(&z, &n);
 }
