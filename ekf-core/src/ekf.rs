@@ -91,7 +91,9 @@ impl Ekf {
         &self.settings
     }
 
-    /// Error covariance (rows 0–2 attitude error in NED, rad²; 3–5 gyro bias, (rad/s)²).
+    /// Error covariance (rows 0–2 attitude error in NED, rad²; 3–5 gyro bias, (rad/s)²). With
+    /// yaw-split on and no magnetometer nothing observes yaw, and row and column 2 are not
+    /// propagated: they keep their initial values (`covariance::YawRow`).
     pub fn covariance(&self) -> &Cov6 {
         &self.p
     }
