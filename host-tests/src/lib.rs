@@ -7,7 +7,8 @@
 //! Conventions are those of `ekf-core`: body FRD, reference NED, SI units, scalar-first
 //! Hamilton quaternion rotating body → NED, Z-Y-X Euler angles (degrees in files), the
 //! accelerometer reads specific force (a level, still board reads (0, 0, −9.81) m/s²).
-#![forbid(unsafe_code)]
+// `unsafe` only for the SSE2 intrinsics of the trace parser (`trace/sse2.rs`).
+#![deny(unsafe_code)]
 #![warn(missing_docs)]
 
 pub mod accuracy;

@@ -103,9 +103,14 @@ impl From<io::Error> for ReplayError {
     }
 }
 
-/// Wrap an angle difference in degrees into [−180, 180).
+/// Wrap an angle difference in degrees into [−180, 180) (returned as it is when already
+/// there: the usual case, without the `fmod` call or the rounding of `a + 180`).
 pub fn wrap_deg(a: f64) -> f64 {
-    (a + 180.0).rem_euclid(360.0) - 180.0
+    if (-180.0..180.0).contains(&a) {
+        a
+    } else {
+        (a + 180.0).rem_euclid(360.0) - 180.0
+    }
 }
 
 /// Running RMSE of Euler errors.
@@ -350,6 +355,9 @@ mod tests {
         assert_eq!(wrap_deg(180.0), -180.0);
         assert_eq!(wrap_deg(0.5), 0.5);
         assert_eq!(wrap_deg(359.0), -1.0);
+        assert_eq!(wrap_deg(-180.0), -180.0);
+        assert_eq!(wrap_deg(179.999), 179.999);
+        assert_eq!(wrap_deg(1e-20), 1e-20);
     }
 
     #[test]

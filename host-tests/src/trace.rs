@@ -29,11 +29,17 @@
 //!
 //! Speed: numbers are parsed with an exact fast path (see `fast_f64`; anything it does not
 //! cover goes to the standard library's parser, so values and errors are those of
-//! `str::parse`), and output is assembled in 64 KiB blocks (estimate lines in a stack buffer
-//! first). `cargo bench -p host-tests --bench replay_speed` measures both.
+//! `str::parse`); the usual cell form `[-]d.ddd` is read 16 bytes at a time with SSE2 on
+//! x86-64 (`sse2.rs`), 8 at a time (SWAR) elsewhere; output is assembled in 64 KiB blocks
+//! (estimate lines in a stack buffer first). `cargo bench -p host-tests --bench replay_speed`
+//! measures both.
 
 use std::fmt;
 use std::io::{self, BufRead, Write};
+
+#[cfg(target_arch = "x86_64")]
+#[allow(unsafe_code)]
+mod sse2;
 
 /// One row of an input trace, units as in the file.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -784,6 +790,17 @@ fn window_decimal(w: &[u8; WINDOW]) -> Option<(Decimal, usize)> {
     Some((Decimal { neg, m, e: -(k as i32) }, f + k))
 }
 
+/// The common number form at the start of `w` as [`window_decimal`] reads it, at most 16
+/// digits, by the SSE2 parser where there is one (x86-64); `None` for anything else, left to
+/// [`window_decimal`].
+#[inline(always)]
+fn window_decimal_fast(w: &[u8; WINDOW]) -> Option<(Decimal, usize)> {
+    #[cfg(target_arch = "x86_64")]
+    return sse2::window_decimal(w);
+    #[cfg(not(target_arch = "x86_64"))]
+    return None;
+}
+
 /// [`window_decimal`] at `buf[s..]`, `None` where fewer than [`WINDOW`] bytes are left.
 #[cfg(test)]
 #[inline(always)]
@@ -793,13 +810,14 @@ fn plain_decimal(buf: &[u8], s: usize) -> Option<(Decimal, usize)> {
 }
 
 /// The fast path of [`TraceReader`]: one data line at the start of `buf`, parsed in place in a
-/// single pass: cells split as they are parsed, numbers by [`plain_decimal`] or else
-/// [`scan_decimal`] (the exact fast path), skipped cells only checked to be ASCII (so the line
-/// is valid UTF-8). Returns the row and the line's length, or `None` for anything that is not a
-/// plain, complete data line: a comment or empty line, padding, a number outside the exact
-/// fast path, a missing or extra cell, a partial group, no `\n` in `buf`. The slow path then
-/// reads the line and gives the same row, or the error. (Near the end of `buf`, where a
-/// 16-byte window does not fit, cells are read by [`scan_decimal`] alone.)
+/// single pass: cells split as they are parsed, numbers by [`window_decimal_fast`], else
+/// [`window_decimal`], else [`scan_decimal`] (the exact fast path), skipped cells only checked
+/// to be ASCII (so the line is valid UTF-8). Returns the row and the line's length, or `None`
+/// for anything that is not a plain, complete data line: a comment or empty line, padding, a
+/// number outside the exact fast path, a missing or extra cell, a partial group, no `\n` in
+/// `buf`. The slow path then reads the line and gives the same row, or the error. (Near the end
+/// of `buf`, where a [`WINDOW`]-byte window does not fit, cells are read by [`scan_decimal`]
+/// alone.)
 /// `t` is not checked against the previous row here.
 #[inline]
 fn fast_row(slots: &[u8], buf: &[u8]) -> Option<(TraceRow, usize)> {
@@ -822,7 +840,9 @@ fn fast_row(slots: &[u8], buf: &[u8]) -> Option<(TraceRow, usize)> {
             }
         } else if !matches!(buf.get(i)?, b',' | b'\n' | b'\r') {
             let plain = match buf[i..].first_chunk::<WINDOW>() {
-                Some(w) => window_decimal(w).filter(|&(_, n)| matches!(w[n], b',' | b'\n' | b'\r')),
+                Some(w) => window_decimal_fast(w)
+                    .or_else(|| window_decimal(w))
+                    .filter(|&(_, n)| matches!(w[n], b',' | b'\n' | b'\r')),
                 None => None,
             };
             let (d, n) = match plain {
