@@ -2,8 +2,8 @@
 //! 16 bytes at a time with SSE2 (part of every x86-64 CPU, so no run-time detection).
 //!
 //! With it the replay's parse stage takes about 1,960 instructions per row of 11 cells, with
-//! the portable parser alone ([`super::window_decimal`]) about 2,170, and about 7 % less time
-//! (docs/accuracy.md, "Replay throughput").
+//! the portable parser alone ([`super::window_decimal`]) about 2,170 (docs/accuracy.md,
+//! "Replay throughput").
 //!
 //! Method, for the digits after the optional sign at `p`:
 //! - `A` = the 16 bytes at `p`, `B` = the 16 bytes at `p + 1`, each minus `'0'`; a byte is a
