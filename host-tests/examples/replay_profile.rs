@@ -9,6 +9,12 @@
 //! `STAGE` is `parse`, `filter`, `format` or `serial` (all on one thread, memory to memory);
 //! the trace is the `still-hour` scenario (seed 1) cut to `ROWS` rows (default 20 000). The
 //! collected count divided by `ROWS` is the instructions per row of that stage.
+//!
+//! For a sampling profile of the whole single-thread replay, `serial` takes a repeat count:
+//!
+//! ```text
+//! perf record -e cpu-clock -g target/release/examples/replay_profile serial 180000 20
+//! ```
 
 use std::io::BufReader;
 
@@ -84,7 +90,15 @@ fn main() {
             stage_filter(&cfg, rows, &mut est);
             stage_format(&est, &mut out);
         }
-        "serial" => stage_serial(&cfg, &csv, &mut out),
+        "serial" => {
+            // Repeated (third argument) so that a sampling profiler sees mostly the replay,
+            // not the simulation that made its input.
+            let reps: usize = args.next().map_or(1, |s| s.parse().expect("REPS"));
+            for _ in 0..reps {
+                out.clear();
+                stage_serial(&cfg, &csv, &mut out);
+            }
+        }
         _ => panic!("stage: parse, filter, format or serial"),
     }
     eprintln!("{stage}: {} rows, {} bytes in, {} bytes out", rows.len(), csv.len(), out.len());
