@@ -114,14 +114,16 @@ impl AxisMap {
 
     /// Remap a raw sensor-axis triplet onto body FRD axes. Same unit in and out; exact (only
     /// copies and sign flips, no rounding).
+    ///
+    /// Without branches: the sign is applied to the sign bit (what `-v` does, NaN included),
+    /// the source picked from an array (`source[i] ≤ 2`, the `min` only spares the bounds
+    /// check).
     pub fn apply(&self, raw: Vec3) -> Vec3 {
+        let raw = [raw.x.to_bits(), raw.y.to_bits(), raw.z.to_bits()];
         let pick = |i: usize| {
-            let v = raw[usize::from(self.source[i])];
-            if self.sign[i] < 0 {
-                -v
-            } else {
-                v
-            }
+            // −1 → all ones → the sign bit; +1 → 0.
+            let flip = (i32::from(self.sign[i]) as u32) & 0x8000_0000;
+            f32::from_bits(raw[usize::from(self.source[i]).min(2)] ^ flip)
         };
         Vec3::new(pick(0), pick(1), pick(2))
     }
@@ -283,6 +285,33 @@ mod tests {
                         r,
                         Err(AxisMapError::InvalidSign { body_axis: axis as u8, sign: s })
                     );
+                }
+            }
+        }
+    }
+
+    /// The branch-free `apply` against the definition `sign[i] · raw[source[i]]` written the
+    /// plain way, bit for bit: zeros of both signs, a subnormal, infinities and NaN payloads.
+    #[test]
+    fn apply_is_the_definition_bit_for_bit() {
+        let specials = [
+            0.0,
+            -0.0,
+            1.5e-42,
+            -9.80665,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::from_bits(0x7fc0_1234),
+            f32::from_bits(0xff80_0001),
+        ];
+        for m in all_maps() {
+            for w in specials.windows(3) {
+                let raw = Vec3::new(w[0], w[1], w[2]);
+                let out = m.apply(raw);
+                for i in 0..3 {
+                    let v = [raw.x, raw.y, raw.z][usize::from(m.source()[i])];
+                    let want = if m.sign()[i] < 0 { -v } else { v };
+                    assert_eq!(out[i].to_bits(), want.to_bits(), "{m:?} {raw:?} axis {i}");
                 }
             }
         }
