@@ -7,8 +7,8 @@
 //!
 //! | section | struct | keys |
 //! |---|---|---|
-//! | `[noise]` | `settings::NoiseSettings` | `gyro_var` [3], `gyro_ref_rate_hz`, `accel_var` |
-//! | `[init]` | `settings::InitSettings` | `window_s`, `initial_yaw`, `estimate_gyro_bias`, `gyro_bias` [3] |
+//! | `[noise]` | `settings::NoiseSettings` | `gyro_var` (3 numbers), `gyro_ref_rate_hz`, `accel_var` |
+//! | `[init]` | `settings::InitSettings` | `window_s`, `initial_yaw`, `estimate_gyro_bias`, `gyro_bias` (3 numbers) |
 //! | `[gate]` | `settings::GateSettings` | `norm_tolerance`, `jump_g`, `innovation_chi2`, `holdoff_s`, `reacquire_s`, `long_reject_s` |
 //! | `[limits]` | `settings::LimitSettings` | `gyro_range`, `gyro_abs_max`, `accel_abs_max_g`, `accel_min_g`, `max_gap_s` |
 //! | `[rest]` | `settings::RestSettings` | `enabled`, `block_s`, `min_blocks`, `rate_threshold`, `gyro_var_factor`, `accel_std_max_g`, `bias_meas_floor`, `yaw_hold` |
@@ -17,8 +17,8 @@
 //! | `[ukf]` | `ukf::UkfParams` | `alpha`, `kappa`, `beta`, `accel_var_scale`, `bias_random_walk`, `initial_tilt_sigma`, `initial_yaw_sigma`, `initial_bias_sigma` |
 //! | `[ssukf]` | `ssukf::SsUkfParams` | `w0`, `alpha`, `beta`, `accel_var_scale`, `bias_random_walk`, `initial_tilt_sigma`, `initial_yaw_sigma`, `initial_bias_sigma` |
 //! | `[complementary]` | `complementary::ComplementaryParams` | `gain`, `gain_rate_hz`, `lerp_below` |
-//! | `[conditioning]` | `conditioning::ConditioningSettings` | `gyro_offset` [3] (rad/s), `accel_calibration` (4×3 array of rows, the source's X matrix), `gyro_axes`, `accel_axes`, `mag_axes` (each `{ source = [i, j, k], sign = [±1, ±1, ±1] }`, body[i] = sign[i] · raw[source[i]]) |
-//! | `[lever_arm]` | `lever_arm::LeverArm` | `r` [3] (m), `centripetal`, `tangential`, `tangential_time_constant` |
+//! | `[conditioning]` | `conditioning::ConditioningSettings` | `gyro_offset` (3 numbers, rad/s), `accel_calibration` (4×3 array of rows, the source's X matrix), `gyro_axes`, `accel_axes`, `mag_axes` (each `{ source = [i, j, k], sign = [±1, ±1, ±1] }`, `body[i] = sign[i] · raw[source[i]]`) |
+//! | `[lever_arm]` | `lever_arm::LeverArm` | `r` (3 numbers, m), `centripetal`, `tangential`, `tangential_time_constant` |
 //!
 //! Example:
 //! ```toml

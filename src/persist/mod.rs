@@ -10,7 +10,7 @@
 //! | 4 | 4 | sequence number (wraps; the newer of two records is the one `b − a` (mod 2³²) < 2³¹ ahead) |
 //! | 8 | 2 | payload length L, bytes |
 //! | 10 | 2 | number of entries |
-//! | 12 | L, padded to even | payload: entries `id: u16, len: u8, value: len bytes` ([`Setting::encode`]) |
+//! | 12 | L, padded to even | payload: entries `id: u16, len: u8, value: len bytes` ([`Setting::encode`](crate::registry::Setting::encode)) |
 //! | 12 + L' | 4 | CRC-32 of bytes 2 .. 12 + L' (everything but the commit word) |
 //!
 //! A record is valid when the commit word is 0x5AA5, the version is known, the length fits
