@@ -31,10 +31,32 @@ const ACCEL_LSB: f32 = 1.0 / (1u32 << ACCEL_FRAC_BITS) as f32;
 /// is below 2⁵² and a block of up to 2¹¹ samples cannot overflow; the sums saturate anyway.
 const SQUARE_CLAMP: i32 = 1 << 26;
 
-/// `x·2^frac` rounded toward zero, saturated to `i32`, from the float's bits (no soft-float
-/// call); NaN gives 0 (the filters never pass one: `validate` rejects it first).
+/// `x·2^frac` rounded toward zero, saturated to `±i32::MAX` (`i32::MIN` for −∞); NaN gives 0
+/// (the filters never pass one: `validate` rejects it first).
+///
+/// On the target from the float's bits ([`to_fixed_bits`], no soft-float call); elsewhere (an
+/// FPU: the host's replay and benchmarks) as the hardware conversion of the exact product
+/// `x·2^frac`, with the one case where the two differ mended: the cast saturates a finite
+/// negative overflow to `i32::MIN`, the bits to `−i32::MAX`. The same result for every `f32`
+/// (tested).
 #[inline(always)]
 fn to_fixed(x: f32, frac: i32) -> i32 {
+    if cfg!(target_arch = "arm") {
+        to_fixed_bits(x, frac)
+    } else {
+        // `2^frac` exact, so is the product (or it overflows to ±∞; subnormals truncate to 0).
+        let v = (x * (1u32 << frac) as f32) as i32;
+        if v == i32::MIN && x.is_finite() {
+            -i32::MAX
+        } else {
+            v
+        }
+    }
+}
+
+/// [`to_fixed`] from the float's bits: no floating-point operation at all.
+#[inline(always)]
+fn to_fixed_bits(x: f32, frac: i32) -> i32 {
     let b = x.to_bits();
     let e = ((b >> 23) & 0xff) as i32;
     if e == 0xff {
@@ -266,6 +288,26 @@ mod tests {
             (1.0e-40, 24, 0), // subnormal
         ] {
             assert_eq!(to_fixed(x, frac), want, "{x} at {frac} bits");
+        }
+        // The two implementations agree on every sign and exponent, for the mantissas at both
+        // ends of each binade and 4,000 between (every place where they could differ: the
+        // shifts, the saturation, zeros, subnormals, infinities, NaN).
+        let mut s = 987u32;
+        for frac in [RATE_FRAC_BITS, ACCEL_FRAC_BITS] {
+            for top in 0..512u32 {
+                for k in 0..6_000u32 {
+                    let mant = match k {
+                        0..1_000 => k,
+                        1_000..2_000 => 0x7f_ffff - (k - 1_000),
+                        _ => {
+                            s = s.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+                            s >> 9
+                        }
+                    };
+                    let x = f32::from_bits(top << 23 | mant);
+                    assert_eq!(to_fixed(x, frac), to_fixed_bits(x, frac), "{x:e} at {frac}");
+                }
+            }
         }
         // Against the f64 product on many values.
         let mut s = 12345u32;
