@@ -29,33 +29,28 @@ fn fixed_f32<const D: usize>(v: f32, out: &mut Vec<u8>) -> bool {
 
 /// [`fixed_f32`] into the start of `out`: the number of bytes written, `None` for finite
 /// `|v| ≥ 1e9`. At most 1 + 9 + 1 + 9 = 20 bytes.
-#[inline]
+///
+/// The product `|v|·10^D` is exact in `f64`: `|v| = m·2^e` with `m < 2^24` and
+/// `10^D = 5^D·2^D` with `5^D ≤ 5^9 < 2^21`, so it is `m·5^D·2^(e+D)` with a significand
+/// below 2^45 (and an exponent well inside the `f64` range, subnormal `f32` included);
+/// [`round_half_away`] then rounds it exactly.
+#[inline(always)]
 pub(super) fn fixed_f32_into<const D: usize>(v: f32, out: &mut [u8; 24]) -> Option<usize> {
     const { assert!(D <= 9) };
-    if !v.is_finite() {
-        return Some(0);
+    let a = v.abs();
+    #[allow(clippy::neg_cmp_op_on_partial_ord)] // NaN is meant to take this branch
+    if !(a < 1e9) {
+        return if a.is_finite() { None } else { Some(0) };
     }
-    if v.abs() >= 1e9 {
-        return None;
-    }
-    let bits = v.to_bits();
-    let exp_bits = ((bits >> 23) & 0xff) as i32;
-    let frac = u64::from(bits & 0x7f_ffff);
-    // v = m · 2^e
-    let (m, e) = if exp_bits == 0 { (frac, -149) } else { (frac | 1 << 23, exp_bits - 150) };
-    let scaled = m * POW10_U64[D]; // < 2^24 · 10^9 < 2^54
-    let n: u64 = if e >= 0 {
-        // |v| < 1e9 bounds the shift: scaled · 2^e < 1e18.
-        scaled << e
-    } else if e > -64 {
-        let s = -e as u32;
-        (scaled + (1u64 << (s - 1))) >> s
-    } else {
-        0 // < 2^54 / 2^64: rounds to zero
-    };
+    let n = round_half_away(f64::from(a) * POW10_F64[D]);
     if n == 0 {
         out[0] = b'0';
         return Some(1);
+    }
+    if D <= 8 && n < 100_000_000 {
+        // The usual case (every Euler angle, quaternion component not rounding to ±1, bias
+        // below 100 °/s): all digits in one `digits8`.
+        return Some(write_fixed8::<D>(v < 0.0, n as u32, out));
     }
     Some(write_fixed::<D>(v < 0.0, n, out))
 }
@@ -90,6 +85,55 @@ pub(super) fn time_fixed(t: f64, out: &mut [u8; 24]) -> Option<usize> {
 fn round_half_away(x: f64) -> u64 {
     let i = x as i64;
     (i + i64::from(x - i as f64 >= 0.5)) as u64
+}
+
+/// `10^D` as `f64`.
+const POW10_F64: [f64; 10] = [1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9];
+
+/// The ASCII `0` in every byte: digit values to digit characters.
+const ZEROS: u64 = 0x3030_3030_3030_3030;
+
+/// The 8 bytes of `w` (little-endian: byte 0 first) into `out` at `i`.
+#[inline(always)]
+fn put8(out: &mut [u8; 24], i: usize, w: u64) {
+    out[i..i + 8].copy_from_slice(&w.to_le_bytes());
+}
+
+/// `±n·10^-D` (`0 < n < 10^8`, `D ≤ 8`) into the start of `out` as [`write_fixed`] writes it,
+/// from the one word of 8 digits `d = digits8(n)` (text order, the integer digits then the
+/// `D` fraction digits): the leading zero digits are the low zero bytes of `d`, the trailing
+/// ones its high zero bytes, so the integer part is the word shifted right and the fraction
+/// the top `D` bytes, each written as a whole word (the bytes after them are overwritten
+/// next or lie past the end). At most 1 + 8 + 1 + 8 bytes; up to 18 of `out` are overwritten.
+#[inline(always)]
+fn write_fixed8<const D: usize>(neg: bool, n: u32, out: &mut [u8; 24]) -> usize {
+    // (Instantiated for `D = 9` too, never called with it.)
+    debug_assert!(D <= 8 && n > 0 && n < 100_000_000);
+    let d = digits8(n);
+    let ascii = d | ZEROS;
+    out[0] = b'-';
+    let k = usize::from(neg);
+    // Trailing zero digits (< 8: `d ≠ 0`); the fraction is not zero iff fewer than `D`.
+    let trail = d.leading_zeros() as usize / 8;
+    if D == 8 {
+        // No integer digit: `0.` then the fraction.
+        out[k] = b'0';
+        out[k + 1] = b'.';
+        put8(out, k + 2, ascii);
+        return k + 2 + 8 - trail;
+    }
+    // Leading zero digits, at most `7 − D` (so that one integer digit, maybe `0`, is left):
+    // the lowest set bit of `d` or the marker bit at byte `7 − D`.
+    let lead = (d | 1 << (8 * (7 - D))).trailing_zeros() as usize / 8;
+    let ni = 8 - D - lead; // integer digits, 1..=8 − D
+    put8(out, k, ascii >> (8 * lead));
+    if D == 0 || trail >= D {
+        return k + ni;
+    }
+    // The fraction after its `.`, over the fraction digits the integer word also wrote.
+    out[k + ni] = b'.';
+    put8(out, k + ni + 1, ascii >> (8 * (8 - D)));
+    k + ni + 1 + D - trail
 }
 
 /// The 8 decimal digits of `n < 10^8` (leading zeros included) as byte values 0..=9, the most
@@ -155,6 +199,39 @@ fn write_fixed<const D: usize>(neg: bool, n: u64, out: &mut [u8; 24]) -> usize {
         }
     }
     k
+}
+
+/// The previous [`fixed_f32_into`] (rounding from the bits of `v`, all digits by
+/// [`write_fixed`]), kept as a reference for the tests.
+#[cfg(test)]
+fn fixed_f32_into_reference<const D: usize>(v: f32, out: &mut [u8; 24]) -> Option<usize> {
+    const { assert!(D <= 9) };
+    if !v.is_finite() {
+        return Some(0);
+    }
+    if v.abs() >= 1e9 {
+        return None;
+    }
+    let bits = v.to_bits();
+    let exp_bits = ((bits >> 23) & 0xff) as i32;
+    let frac = u64::from(bits & 0x7f_ffff);
+    // v = m · 2^e
+    let (m, e) = if exp_bits == 0 { (frac, -149) } else { (frac | 1 << 23, exp_bits - 150) };
+    let scaled = m * POW10_U64[D]; // < 2^24 · 10^9 < 2^54
+    let n: u64 = if e >= 0 {
+        // |v| < 1e9 bounds the shift: scaled · 2^e < 1e18.
+        scaled << e
+    } else if e > -64 {
+        let s = -e as u32;
+        (scaled + (1u64 << (s - 1))) >> s
+    } else {
+        0 // < 2^54 / 2^64: rounds to zero
+    };
+    if n == 0 {
+        out[0] = b'0';
+        return Some(1);
+    }
+    Some(write_fixed::<D>(v < 0.0, n, out))
 }
 
 pub(super) fn itoa_u16(mut v: u16, buf: &mut [u8; 5]) -> &[u8] {
@@ -284,6 +361,98 @@ mod tests {
         assert!(fixed_f32::<8>(f32::NEG_INFINITY, &mut out) && out.is_empty());
         fixed_f32::<8>(0.707_106_77, &mut out);
         assert_eq!(out, b"0.70710677");
+    }
+
+    /// `fixed_f32_into::<D>` and the reference give the same bytes for `v`, every `D`.
+    fn same_as_reference(v: f32) {
+        fn same<const D: usize>(v: f32) {
+            let (mut a, mut b) = ([0u8; 24], [0u8; 24]);
+            let (ka, kb) =
+                (fixed_f32_into::<D>(v, &mut a), fixed_f32_into_reference::<D>(v, &mut b));
+            assert_eq!(ka, kb, "{v:e} ({:#x}) with {D} decimals", v.to_bits());
+            if let Some(k) = ka {
+                assert_eq!(a[..k], b[..k], "{v:e} ({:#x}) with {D} decimals", v.to_bits());
+            }
+        }
+        same::<0>(v);
+        same::<1>(v);
+        same::<2>(v);
+        same::<3>(v);
+        same::<4>(v);
+        same::<5>(v);
+        same::<6>(v);
+        same::<7>(v);
+        same::<8>(v);
+        same::<9>(v);
+    }
+
+    #[test]
+    fn fixed_f32_into_writes_the_references_bytes() {
+        let edges = [
+            0.0,
+            -0.0,
+            1e-45,
+            -1e-45,
+            f32::MIN_POSITIVE,
+            f32::from_bits(0x007f_ffff), // largest subnormal
+            0.999_999_999,
+            0.999_999_94,
+            -0.999_999_94,
+            0.999_999_97,
+            9.999_999_9,
+            99.999_999,
+            359.999_996,
+            -359.999_996,
+            359.999_99,
+            -179.999_99,
+            4e-9,
+            5e-9,
+            -5e-9,
+            -4.9e-9,
+            -0.000_004,
+            -0.000_005,
+            -0.000_000_4,
+            1.0,
+            -1.0,
+            10.0,
+            100.0,
+            99_999_999.0,
+            100_000_000.0,
+            999_999_940.0,
+            -999_999_940.0,
+            1e9,
+            -1e9,
+            3e38,
+            f32::MAX,
+            f32::MIN,
+            f32::NAN,
+            -f32::NAN,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+        ];
+        for v in edges {
+            same_as_reference(v);
+            same_as_reference(v.next_up());
+            same_as_reference(v.next_down());
+        }
+        // Every 997th bit pattern (all exponents, both signs).
+        for bits in (0..=u32::MAX).step_by(997) {
+            same_as_reference(f32::from_bits(bits));
+        }
+        let mut rng = crate::rng::Rng::new(5, 0);
+        for k in 0..400_000u32 {
+            // Random magnitudes 1e-12..1e9, and values at and next to the ties k + 1/2 of every
+            // number of decimals.
+            let v = (rng.normal() * 10f64.powi((k % 22) as i32 - 12)) as f32;
+            same_as_reference(v);
+            let d = (k % 10) as i32;
+            let tie = ((rng.uniform() * 1e7).floor() + 0.5) / 10f64.powi(d);
+            for t in [tie as f32, -tie as f32] {
+                same_as_reference(t);
+                same_as_reference(t.next_up());
+                same_as_reference(t.next_down());
+            }
+        }
     }
 
     #[test]
