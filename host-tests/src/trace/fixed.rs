@@ -38,19 +38,25 @@ fn fixed_f32<const D: usize>(v: f32, out: &mut Vec<u8>) -> bool {
 pub(super) fn fixed_f32_into<const D: usize>(v: f32, out: &mut [u8; 24]) -> Option<usize> {
     const { assert!(D <= 9) };
     let a = v.abs();
+    let x = f64::from(a) * POW10_F64[D];
+    // The usual case (every Euler angle, quaternion component not rounding to ±1, bias below
+    // 100 °/s): `n < 10^8`, all digits in one `digits8`. NaN fails the test too.
+    if D <= 8 && x < 99_999_999.5 {
+        let n = round_half_away_small(x);
+        if n == 0 {
+            out[0] = b'0';
+            return Some(1);
+        }
+        return Some(write_fixed8::<D>(v < 0.0, n, out));
+    }
     #[allow(clippy::neg_cmp_op_on_partial_ord)] // NaN is meant to take this branch
     if !(a < 1e9) {
         return if a.is_finite() { None } else { Some(0) };
     }
-    let n = round_half_away(f64::from(a) * POW10_F64[D]);
+    let n = round_half_away(x);
     if n == 0 {
         out[0] = b'0';
         return Some(1);
-    }
-    if D <= 8 && n < 100_000_000 {
-        // The usual case (every Euler angle, quaternion component not rounding to ±1, bias
-        // below 100 °/s): all digits in one `digits8`.
-        return Some(write_fixed8::<D>(v < 0.0, n as u32, out));
     }
     Some(write_fixed::<D>(v < 0.0, n, out))
 }
@@ -134,6 +140,20 @@ fn write_fixed8<const D: usize>(neg: bool, n: u32, out: &mut [u8; 24]) -> usize 
     out[k + ni] = b'.';
     put8(out, k + ni + 1, ascii >> (8 * (8 - D)));
     k + ni + 1 + D - trail
+}
+
+/// [`round_half_away`] for `0 ≤ x < 2^32 − 1/2` (so NaN is not an input), without converting a
+/// float to an integer (whose saturation of out-of-range values costs as much again): adding
+/// 2⁵² rounds `x` to an integer to nearest, ties to even, and that integer is then the low
+/// bits of the sum's representation (the sum is in [2⁵², 2⁵³), where the spacing is 1). The
+/// subtractions are exact, so the remainder `x − r` is exact and in [−1/2, 1/2]: it is 1/2
+/// exactly where the tie went down, to be taken up instead (away from zero).
+#[inline(always)]
+fn round_half_away_small(x: f64) -> u32 {
+    const MAGIC: f64 = 4_503_599_627_370_496.0; // 2⁵²
+    let y = x + MAGIC;
+    let r = y - MAGIC;
+    y.to_bits() as u32 + u32::from(x - r >= 0.5)
 }
 
 /// The 8 decimal digits of `n < 10^8` (leading zeros included) as byte values 0..=9, the most
@@ -469,6 +489,26 @@ mod tests {
             }
         }
         for x in [0.0, 0.5, 0.49999999999999994, 1.5, 2.5, 4503599627370495.5, 4e18] {
+            check(x);
+        }
+    }
+
+    #[test]
+    fn round_half_away_small_is_round() {
+        let mut rng = crate::rng::Rng::new(4, 0);
+        let check = |x: f64| {
+            if x < 4_294_967_295.5 {
+                assert_eq!(u64::from(round_half_away_small(x)), x.round() as u64, "{x:e}");
+            }
+        };
+        for k in 0..1_000_000u64 {
+            let x = rng.uniform() * 2f64.powi((k % 33) as i32 - 1);
+            let tie = (k * 4_294_967 % 4_294_967_296) as f64 + 0.5;
+            for x in [x, tie, tie.next_down(), tie.next_up(), x.next_up(), tie - 0.5] {
+                check(x);
+            }
+        }
+        for x in [0.0, 1e-300, 0.5, 0.49999999999999994, 1.5, 2.5, 99_999_999.49999999, 4e9] {
             check(x);
         }
     }
