@@ -42,7 +42,7 @@ mod fixed;
 #[allow(unsafe_code)]
 mod sse2;
 
-use fixed::{fixed_f32_into, itoa_u16, time_fixed};
+use fixed::{fixed_f32_into, time_fixed, u16_line_end};
 
 /// One row of an input trace, units as in the file.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -1197,17 +1197,13 @@ impl<W: Write> EstimateWriter<W> {
             b[..s.len()].copy_from_slice(s);
             n = s.len();
         }
-        n = fixed_f32s::<Q_DECIMALS>(&mut self.fb, &r.q, b, n);
-        n = fixed_f32s::<EULER_DECIMALS>(&mut self.fb, &r.euler_deg, b, n);
-        n = fixed_f32s::<BIAS_DECIMALS>(&mut self.fb, &r.bias_dps, b, n);
+        n = fixed_f32s::<Q_DECIMALS, _>(&mut self.fb, &r.q, b, n);
+        n = fixed_f32s::<EULER_DECIMALS, _>(&mut self.fb, &r.euler_deg, b, n);
+        n = fixed_f32s::<BIAS_DECIMALS, _>(&mut self.fb, &r.bias_dps, b, n);
         b[n] = b',';
         n += 1;
-        let mut fbuf = [0; 5];
-        let f = itoa_u16(r.flags, &mut fbuf);
-        b[n..n + f.len()].copy_from_slice(f);
-        n += f.len();
-        b[n] = b'\n';
-        self.len = start + n + 1;
+        n += u16_line_end(r.flags, (&mut b[n..n + 8]).try_into().unwrap());
+        self.len = start + n;
         if self.len >= OUT_BLOCK {
             self.w.write_all(&self.buf[..self.len])?;
             self.len = 0;
@@ -1228,25 +1224,26 @@ impl<W: Write> EstimateWriter<W> {
 /// `,` and each of `vs` with `D` decimals at most (see [`fixed_f32_into`]) into `b` from `n`; the
 /// new end.
 #[inline(always)]
-fn fixed_f32s<const D: usize>(
+fn fixed_f32s<const D: usize, const N: usize>(
     fb: &mut ryu::Buffer,
-    vs: &[f32],
+    vs: &[f32; N],
     b: &mut [u8; LINE_MAX],
     mut n: usize,
 ) -> usize {
     for &v in vs {
-        b[n] = b',';
-        n += 1;
-        let slot: &mut [u8; 24] = (&mut b[n..n + 24]).try_into().unwrap();
-        match fixed_f32_into::<D>(v, slot) {
-            Some(k) => n += k,
+        // One bounds check for the separator and the number.
+        let cell: &mut [u8; 25] = (&mut b[n..n + 25]).try_into().unwrap();
+        cell[0] = b',';
+        let slot: &mut [u8; 24] = (&mut cell[1..]).try_into().unwrap();
+        n += 1 + match fixed_f32_into::<D>(v, slot) {
+            Some(k) => k,
             None => {
                 // Outside the fixed formatter's range (|v| ≥ 1e9): shortest round trip.
                 let s = fb.format_finite(v).as_bytes();
                 slot[..s.len()].copy_from_slice(s);
-                n += s.len();
+                s.len()
             }
-        }
+        };
     }
     n
 }

@@ -254,7 +254,30 @@ fn fixed_f32_into_reference<const D: usize>(v: f32, out: &mut [u8; 24]) -> Optio
     Some(write_fixed::<D>(v < 0.0, n, out))
 }
 
-pub(super) fn itoa_u16(mut v: u16, buf: &mut [u8; 5]) -> &[u8] {
+/// `v` in decimal then `\n` into the start of `out`: the number of bytes written (2..=6; all
+/// 8 are overwritten). The 5 digits (leading zeros included) as one word: the first by a
+/// division, the other 4 in parallel as in [`digits8`] (`x·5243 >> 19` is `x / 100` for
+/// `x < 10^4`); the leading zero bytes are shifted out and the newline put after the last.
+#[inline(always)]
+pub(super) fn u16_line_end(v: u16, out: &mut [u8; 8]) -> usize {
+    let v = u32::from(v);
+    let first = v / 10_000;
+    let rest = v - first * 10_000;
+    let hundreds = (rest * 5243) >> 19;
+    let x = hundreds | (rest - hundreds * 100) << 16;
+    let tens = ((x * 103) >> 10) & 0x000f_000f;
+    let d = u64::from(first) | u64::from(tens | (x - tens * 10) << 8) << 8;
+    // Leading zero digits, at most 4 (the marker bit at byte 4).
+    let lead = (d | 1 << 32).trailing_zeros() as usize / 8;
+    let len = 5 - lead;
+    let w = (d | 0x30_3030_3030) >> (8 * lead) | u64::from(b'\n') << (8 * len);
+    *out = w.to_le_bytes();
+    len + 1
+}
+
+/// The previous flags writer, kept as a reference for the tests.
+#[cfg(test)]
+fn itoa_u16(mut v: u16, buf: &mut [u8; 5]) -> &[u8] {
     let mut i = buf.len();
     loop {
         i -= 1;
@@ -472,6 +495,18 @@ mod tests {
                 same_as_reference(t.next_up());
                 same_as_reference(t.next_down());
             }
+        }
+    }
+
+    #[test]
+    fn u16_line_end_is_itoa_for_every_input() {
+        for v in 0..=u16::MAX {
+            let mut out = [0; 8];
+            let k = u16_line_end(v, &mut out);
+            let mut buf = [0; 5];
+            let want = itoa_u16(v, &mut buf);
+            assert_eq!(out[..k - 1], *want, "{v}");
+            assert_eq!(out[k - 1], b'\n', "{v}");
         }
     }
 
