@@ -37,9 +37,12 @@
 use std::fmt;
 use std::io::{self, BufRead, Write};
 
+mod fixed;
 #[cfg(target_arch = "x86_64")]
 #[allow(unsafe_code)]
 mod sse2;
+
+use fixed::{fixed_f32_into, time_fixed, u16_line_end};
 
 /// One row of an input trace, units as in the file.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -1049,174 +1052,8 @@ impl<'a> Line<'a> {
     }
 }
 
-/// `00`, `01`, …, `99`.
-const DIGIT_PAIRS: &[u8; 200] = b"0001020304050607080910111213141516171819\
-    2021222324252627282930313233343536373839\
-    4041424344454647484950515253545556575859\
-    6061626364656667686970717273747576777879\
-    8081828384858687888990919293949596979899";
-
 const POW10_U64: [u64; 10] =
     [1, 10, 100, 1_000, 10_000, 100_000, 1_000_000, 10_000_000, 100_000_000, 1_000_000_000];
-
-/// Append `v` rounded to `D ≤ 9` decimals, half away from zero, exactly: `v = m·2^e` with an
-/// integer `m < 2^24`, so `v·10^D = m·10^D·2^e` is rounded with integer arithmetic, no
-/// floating-point error. Trailing zeros of the fraction are dropped (`1`, `0.5`, `-0.00012`),
-/// a value that rounds to zero is written `0`, NaN or infinite values are written as nothing
-/// (an empty cell). Returns false, writing nothing, for finite `|v| ≥ 1e9`.
-#[cfg(test)]
-fn fixed_f32<const D: usize>(v: f32, out: &mut Vec<u8>) -> bool {
-    let mut b = [0u8; 24];
-    match fixed_f32_into::<D>(v, &mut b) {
-        Some(n) => {
-            out.extend_from_slice(&b[..n]);
-            true
-        }
-        None => false,
-    }
-}
-
-/// [`fixed_f32`] into the start of `out`: the number of bytes written, `None` for finite
-/// `|v| ≥ 1e9`. At most 1 + 9 + 1 + 9 = 20 bytes.
-#[inline]
-fn fixed_f32_into<const D: usize>(v: f32, out: &mut [u8; 24]) -> Option<usize> {
-    const { assert!(D <= 9) };
-    if !v.is_finite() {
-        return Some(0);
-    }
-    if v.abs() >= 1e9 {
-        return None;
-    }
-    let bits = v.to_bits();
-    let exp_bits = ((bits >> 23) & 0xff) as i32;
-    let frac = u64::from(bits & 0x7f_ffff);
-    // v = m · 2^e
-    let (m, e) = if exp_bits == 0 { (frac, -149) } else { (frac | 1 << 23, exp_bits - 150) };
-    let scaled = m * POW10_U64[D]; // < 2^24 · 10^9 < 2^54
-    let n: u64 = if e >= 0 {
-        // |v| < 1e9 bounds the shift: scaled · 2^e < 1e18.
-        scaled << e
-    } else if e > -64 {
-        let s = -e as u32;
-        (scaled + (1u64 << (s - 1))) >> s
-    } else {
-        0 // < 2^54 / 2^64: rounds to zero
-    };
-    if n == 0 {
-        out[0] = b'0';
-        return Some(1);
-    }
-    Some(write_fixed::<D>(v < 0.0, n, out))
-}
-
-/// `t` (s) with at most 9 decimals, trailing zeros dropped, if that reads back as exactly
-/// `t`; else `None`, writing garbage. For `|t| < 4e6` s these are then the digits of the
-/// shortest round trip (`ryu`'s, without its `.0` or exponent form), found faster: `f64`
-/// spacing there is below 1e-9, so one 9-decimal number at most reads back as `t`.
-///
-/// "Reads back" is what [`fast_f64`] (the reader's exact path) gives for the written text
-/// `m·10^-k` (`m` the digits, `k ≤ 9` the decimals): the correctly rounded `m / 10^k`. That
-/// is the same rational number as `n / 10^9` (`n = round(|t|·10^9)`), so while `n ≤ 2⁵³`
-/// (exact in `f64`) the one correctly rounded division `n / 1e9` gives the same value
-/// without parsing; larger `n` (`|t|` above about 9e6 s) parse the text back.
-#[inline]
-fn time_fixed(t: f64, out: &mut [u8; 24]) -> Option<usize> {
-    if !t.is_finite() || t.abs() >= 4e9 || t == 0.0 {
-        return None;
-    }
-    let n = round_half_away(t.abs() * 1e9);
-    if n == 0 {
-        return None;
-    }
-    let k = write_fixed::<9>(t < 0.0, n, out);
-    let back = if n <= 1 << 53 { n as f64 / 1e9 } else { fast_f64(&out[..k])?.abs() };
-    (back == t.abs()).then_some(k)
-}
-
-/// `x.round() as u64` for `0 ≤ x < 2⁶³` without the library call: `x − trunc(x)` is exact
-/// (below 2⁵² `x` has its fraction bits; above, `x` is an integer and the difference 0).
-#[inline(always)]
-fn round_half_away(x: f64) -> u64 {
-    let i = x as i64;
-    (i + i64::from(x - i as f64 >= 0.5)) as u64
-}
-
-/// The 8 decimal digits of `n < 10^8` (leading zeros included) as byte values 0..=9, the most
-/// significant in byte 0 (little-endian order, i.e. text order), computed in parallel: split
-/// into two 4-digit halves in 32-bit lanes, each split by 100 (`x·10486 >> 20` is `x / 100`
-/// for `x < 10^4`), then each 2-digit lane by 10 (`x·103 >> 10` is `x / 10` for `x < 100`);
-/// no product reaches the next lane.
-#[inline(always)]
-fn digits8(n: u32) -> u64 {
-    let x = u64::from(n / 10_000) | u64::from(n % 10_000) << 32;
-    let hundreds = ((x * 10_486) >> 20) & 0x0000_007f_0000_007f;
-    let x = hundreds | (x - hundreds * 100) << 16;
-    let tens = ((x * 103) >> 10) & 0x000f_000f_000f_000f;
-    tens | (x - tens * 10) << 8
-}
-
-/// `±n·10^-D` (`n ≠ 0`, `n / 10^D < 2^32`) into the start of `out`, trailing zeros of the
-/// fraction dropped: the number of bytes written (at most 1 + 10 + 1 + 9; up to 21 bytes of
-/// `out` are overwritten).
-#[inline]
-fn write_fixed<const D: usize>(neg: bool, n: u64, out: &mut [u8; 24]) -> usize {
-    const { assert!(D <= 9) };
-    out[0] = b'-';
-    let mut k = usize::from(neg);
-    // `ip < 2^32` (< 1e9 from `fixed_f32_into`), `fp < 10^D ≤ 1e9`.
-    let (mut ip, fp) = ((n / POW10_U64[D]) as u32, (n % POW10_U64[D]) as u32);
-    if ip < 10 {
-        out[k] = b'0' + ip as u8;
-        k += 1;
-    } else {
-        // Count the digits, then write them right to left, two at a time.
-        let mut len = 2;
-        while len < 10 && u64::from(ip) >= POW10_U64[len] {
-            len += 1;
-        }
-        let mut i = k + len;
-        while ip >= 10 {
-            let d = (ip % 100) as usize * 2;
-            ip /= 100;
-            out[i - 2..i].copy_from_slice(&DIGIT_PAIRS[d..d + 2]);
-            i -= 2;
-        }
-        if i > k {
-            out[k] = b'0' + ip as u8;
-        }
-        k += len;
-    }
-    if D > 0 && fp != 0 {
-        // The D digits as 8 (or 1 + 8): the trailing zero digits are the top zero bytes.
-        out[k] = b'.';
-        k += 1;
-        let rest = if D == 9 {
-            out[k] = b'0' + (fp / 100_000_000) as u8;
-            k += 1;
-            fp % 100_000_000
-        } else {
-            fp * POW10_U64[8 - D.min(8)] as u32
-        };
-        if rest != 0 {
-            let d = digits8(rest);
-            out[k..k + 8].copy_from_slice(&(d | 0x3030_3030_3030_3030).to_le_bytes());
-            k += 8 - (d.leading_zeros() / 8) as usize;
-        }
-    }
-    k
-}
-
-fn itoa_u16(mut v: u16, buf: &mut [u8; 5]) -> &[u8] {
-    let mut i = buf.len();
-    loop {
-        i -= 1;
-        buf[i] = b'0' + (v % 10) as u8;
-        v /= 10;
-        if v == 0 {
-            return &buf[i..];
-        }
-    }
-}
 
 /// Writer of input traces. Output is buffered in blocks: end with [`TraceWriter::finish`].
 pub struct TraceWriter<W: Write> {
@@ -1360,17 +1197,13 @@ impl<W: Write> EstimateWriter<W> {
             b[..s.len()].copy_from_slice(s);
             n = s.len();
         }
-        n = fixed_f32s::<Q_DECIMALS>(&mut self.fb, &r.q, b, n);
-        n = fixed_f32s::<EULER_DECIMALS>(&mut self.fb, &r.euler_deg, b, n);
-        n = fixed_f32s::<BIAS_DECIMALS>(&mut self.fb, &r.bias_dps, b, n);
+        n = fixed_f32s::<Q_DECIMALS, _>(&mut self.fb, &r.q, b, n);
+        n = fixed_f32s::<EULER_DECIMALS, _>(&mut self.fb, &r.euler_deg, b, n);
+        n = fixed_f32s::<BIAS_DECIMALS, _>(&mut self.fb, &r.bias_dps, b, n);
         b[n] = b',';
         n += 1;
-        let mut fbuf = [0; 5];
-        let f = itoa_u16(r.flags, &mut fbuf);
-        b[n..n + f.len()].copy_from_slice(f);
-        n += f.len();
-        b[n] = b'\n';
-        self.len = start + n + 1;
+        n += u16_line_end(r.flags, (&mut b[n..n + 8]).try_into().unwrap());
+        self.len = start + n;
         if self.len >= OUT_BLOCK {
             self.w.write_all(&self.buf[..self.len])?;
             self.len = 0;
@@ -1388,28 +1221,29 @@ impl<W: Write> EstimateWriter<W> {
     }
 }
 
-/// `,` and each of `vs` with `D` decimals at most (see [`fixed_f32`]) into `b` from `n`; the
+/// `,` and each of `vs` with `D` decimals at most (see [`fixed_f32_into`]) into `b` from `n`; the
 /// new end.
 #[inline(always)]
-fn fixed_f32s<const D: usize>(
+fn fixed_f32s<const D: usize, const N: usize>(
     fb: &mut ryu::Buffer,
-    vs: &[f32],
+    vs: &[f32; N],
     b: &mut [u8; LINE_MAX],
     mut n: usize,
 ) -> usize {
     for &v in vs {
-        b[n] = b',';
-        n += 1;
-        let slot: &mut [u8; 24] = (&mut b[n..n + 24]).try_into().unwrap();
-        match fixed_f32_into::<D>(v, slot) {
-            Some(k) => n += k,
+        // One bounds check for the separator and the number.
+        let cell: &mut [u8; 25] = (&mut b[n..n + 25]).try_into().unwrap();
+        cell[0] = b',';
+        let slot: &mut [u8; 24] = (&mut cell[1..]).try_into().unwrap();
+        n += 1 + match fixed_f32_into::<D>(v, slot) {
+            Some(k) => k,
             None => {
                 // Outside the fixed formatter's range (|v| ≥ 1e9): shortest round trip.
                 let s = fb.format_finite(v).as_bytes();
                 slot[..s.len()].copy_from_slice(s);
-                n += s.len();
+                s.len()
             }
-        }
+        };
     }
     n
 }
@@ -1765,26 +1599,6 @@ mod tests {
         }
     }
 
-    #[test]
-    fn digits8_is_exact_for_every_input() {
-        let mut d = [0u8; 8];
-        for n in 0..100_000_000u32 {
-            let got = digits8(n);
-            // Incrementing the reference digits is cheaper than dividing for every n.
-            if n > 0 {
-                let mut i = 7;
-                while d[i] == 9 {
-                    d[i] = 0;
-                    i -= 1;
-                }
-                d[i] += 1;
-            }
-            if got != u64::from_le_bytes(d) {
-                panic!("digits8({n}) = {got:x}");
-            }
-        }
-    }
-
     /// Rows (as `Debug` text, so `-0.0` differs from `0.0`) or the error message of each
     /// `next_row` until the end or the first error.
     fn read_all(text: &[u8], fast: bool, capacity: usize) -> Vec<String> {
@@ -1937,152 +1751,6 @@ mod tests {
         fn prop_fast_and_slow_line_paths_agree(seed in proptest::num::u64::ANY, cap in 8usize..300) {
             let text = random_trace(&mut crate::rng::Rng::new(seed, 0));
             proptest::prop_assert_eq!(read_all(&text, true, cap), read_all(&text, false, 1 << 16));
-        }
-    }
-
-    /// `v` rounded to `d` decimals half away from zero, as a signed integer count of 10^-d,
-    /// from the exact decimal expansion of `v` (the standard library's formatting).
-    fn reference_fixed(v: f32, d: usize) -> i128 {
-        let s = format!("{:.200}", (v as f64).abs());
-        let (ip, fp) = s.split_once('.').unwrap();
-        let digits = format!("{ip}{}", &fp[..d]);
-        let mut n: i128 = digits.parse().unwrap();
-        if fp.as_bytes()[d] >= b'5' {
-            n += 1;
-        }
-        if v < 0.0 {
-            -n
-        } else {
-            n
-        }
-    }
-
-    fn written_fixed(s: &str, d: usize) -> i128 {
-        let (neg, s) = match s.strip_prefix('-') {
-            Some(r) => (true, r),
-            None => (false, s),
-        };
-        let (ip, fp) = s.split_once('.').unwrap_or((s, ""));
-        assert!(!fp.ends_with('0') && fp.len() <= d, "{s:?}");
-        let n: i128 = format!("{ip}{fp:0<d$}").parse().unwrap();
-        assert!(!(neg && n == 0), "negative zero written: {s:?}");
-        if neg {
-            -n
-        } else {
-            n
-        }
-    }
-
-    #[test]
-    fn fixed_point_rounds_exactly_half_away_from_zero() {
-        fn check<const D: usize>(v: f32) {
-            let mut out = Vec::new();
-            assert!(fixed_f32::<D>(v, &mut out));
-            let s = std::str::from_utf8(&out).unwrap();
-            assert_eq!(written_fixed(s, D), reference_fixed(v, D), "{v:e} with {D} decimals");
-        }
-        let fixed = [
-            0.0,
-            -0.0,
-            1.0,
-            -1.0,
-            0.5,
-            -0.5,
-            0.001_953_125, // 2^-9: a tie at 8 decimals
-            -0.001_953_125,
-            0.000_003_814_697_3, // 2^-18
-            1e-9,
-            -1e-9,
-            4e-9,
-            5e-9,
-            179.9,
-            -180.0,
-            1.619,
-            f32::MIN_POSITIVE,
-            1e-45,
-            999_999_900.0,
-            -999_999_900.0,
-            0.999_999_94,
-        ];
-        for v in fixed {
-            check::<8>(v);
-            check::<5>(v);
-            check::<6>(v);
-            check::<0>(v);
-            check::<9>(v);
-        }
-        let mut rng = crate::rng::Rng::new(7, 0);
-        for k in 0..300_000u32 {
-            let bits = rng.next_u64();
-            // Random magnitudes 1e-12..1e9 and random bit patterns within that range.
-            let v = (rng.normal() * 10f64.powi((k % 21) as i32 - 12)) as f32;
-            let r = f32::from_bits(bits as u32);
-            for v in [v, r] {
-                if v.is_finite() && v.abs() < 1e9 {
-                    check::<8>(v);
-                    check::<5>(v);
-                    check::<6>(v);
-                }
-            }
-        }
-        let mut out = Vec::new();
-        assert!(!fixed_f32::<8>(1e9, &mut out) && out.is_empty());
-        assert!(fixed_f32::<8>(f32::NAN, &mut out) && out.is_empty());
-        assert!(fixed_f32::<8>(f32::NEG_INFINITY, &mut out) && out.is_empty());
-        fixed_f32::<8>(0.707_106_77, &mut out);
-        assert_eq!(out, b"0.70710677");
-    }
-
-    #[test]
-    fn round_half_away_is_round() {
-        let mut rng = crate::rng::Rng::new(3, 0);
-        let check = |x: f64| assert_eq!(round_half_away(x), x.round() as u64, "{x:e}");
-        for k in 0..1_000_000u64 {
-            let x = rng.uniform() * 2f64.powi((k % 63) as i32);
-            let tie = (k >> 1) as f64 + 0.5;
-            for x in [x, tie, f64::from_bits(tie.to_bits() - 1), f64::from_bits(x.to_bits() + 1)] {
-                if x < 9.2e18 {
-                    check(x);
-                }
-            }
-        }
-        for x in [0.0, 0.5, 0.49999999999999994, 1.5, 2.5, 4503599627370495.5, 4e18] {
-            check(x);
-        }
-    }
-
-    #[test]
-    fn time_is_written_shortest_round_trip() {
-        let mut rng = crate::rng::Rng::new(11, 0);
-        let mut fast = 0;
-        let check = |t: f64| -> bool {
-            let mut out = [0u8; 24];
-            let Some(k) = time_fixed(t, &mut out) else { return false };
-            let s = std::str::from_utf8(&out[..k]).unwrap();
-            assert_eq!(s.parse::<f64>().map(f64::to_bits), Ok(t.to_bits()), "{t:e} → {s}");
-            if t.abs() < 4e6 {
-                assert_eq!(s, ryu::Buffer::new().format(t).trim_end_matches(".0"), "{t:e}");
-            }
-            true
-        };
-        for k in 0..200_000u64 {
-            // Sample times as a simulator or a logger writes them, and arbitrary values.
-            let rate = [50.0, 100.0, 104.0, 208.0, 833.0, 1000.0][(k % 6) as usize];
-            for t in [
-                k as f64 / rate,
-                (k * 7919 % 360_000) as f64 * 0.01,
-                rng.uniform() * 3600.0,
-                -(k as f64) * 0.001,
-                f64::from_bits(rng.next_u64()),
-            ] {
-                if check(t) {
-                    fast += 1;
-                }
-            }
-        }
-        assert!(fast > 400_000, "{fast}");
-        for t in [0.0, -0.0, 1e-12, 5e9, f64::NAN, f64::INFINITY] {
-            assert!(time_fixed(t, &mut [0; 24]).is_none(), "{t}");
         }
     }
 
