@@ -1,9 +1,9 @@
 //! Replay throughput: `cargo bench -p host-tests --bench replay_speed`.
 //!
 //! The one-hour `still-hour` trace (180 000 rows, seed 1) is simulated and written to memory
-//! once; then, best of 7 runs each, on one thread, timed by the thread's CPU time (Linux
-//! `/proc/thread-self/schedstat`; wall time elsewhere) so that other processes sharing the
-//! cores do not inflate it:
+//! once; then, best of 15 runs each (bursts of load on a shared machine last seconds), on one
+//! thread, timed by the thread's CPU time (`clock_gettime(CLOCK_THREAD_CPUTIME_ID)`; wall time
+//! where there is none) so that other processes sharing the cores do not inflate it:
 //! - **parse**: `TraceReader` over the CSV bytes;
 //! - **filter**: the replay loop (`replay_rows`: conditioning, `dt`, the EKF, RMSE) on parsed
 //!   rows, estimates discarded;
@@ -30,7 +30,7 @@ use host_tests::replay::{replay, replay_rows, replay_serial, FilterKind};
 use host_tests::sim::Scenario;
 use host_tests::trace::{EstimateRow, EstimateWriter, TraceReader, TraceRow, TraceWriter};
 
-const REPS: usize = 7;
+const REPS: usize = 15;
 const SECTION: &str = "replay-speed";
 const COMMAND: &str =
     "cargo bench -p host-tests --bench replay_speed -- --markdown docs/accuracy.md";
