@@ -11,8 +11,8 @@ const DIGIT_PAIRS: &[u8; 200] = b"0001020304050607080910111213141516171819\
     8081828384858687888990919293949596979899";
 
 /// Append `v` rounded to `D ≤ 9` decimals, half away from zero, exactly: `v = m·2^e` with an
-/// integer `m < 2^24`, so `v·10^D = m·10^D·2^e` is rounded with integer arithmetic, no
-/// floating-point error. Trailing zeros of the fraction are dropped (`1`, `0.5`, `-0.00012`),
+/// integer `m < 2^24`, so `v·10^D = m·5^D·2^(e+D)` has a significand below 2^45 and is exact
+/// as an `f64` product; it is rounded from there, no error anywhere. Trailing zeros of the fraction are dropped (`1`, `0.5`, `-0.00012`),
 /// a value that rounds to zero is written `0`, NaN or infinite values are written as nothing
 /// (an empty cell). Returns false, writing nothing, for finite `|v| ≥ 1e9`.
 #[cfg(test)]
