@@ -6,7 +6,9 @@
 //!     target/release/examples/replay_profile STAGE [ROWS]
 //! ```
 //!
-//! `STAGE` is `parse`, `filter`, `format` or `serial` (all on one thread, memory to memory);
+//! `STAGE` is `parse`, `filter`, `format` or `serial` (all on one thread, memory to memory,
+//! the trace's bytes read in place), or `file` (`replay_serial` from a trace file to an
+//! estimate file, as the `replay` command writes it);
 //! the trace is the `still-hour` scenario (seed 1) cut to `ROWS` rows (default 20 000). The
 //! collected count divided by `ROWS` is the instructions per row of that stage.
 //!
@@ -15,12 +17,17 @@
 //! ```text
 //! perf record -e cpu-clock -g target/release/examples/replay_profile serial 180000 20
 //! ```
+//!
+//! With a repeat count above 1 it also prints the best and the median thread CPU time per row
+//! of the repeats (a quick A/B figure; the benchmark `replay_speed` is the reported one);
+//! `file ROWS REPS` prints the best wall time and the best thread CPU time (user and system).
 
 use std::io::BufReader;
 
 use ekf_core::conditioning::Conditioner;
-use host_tests::accuracy::{replay_config, simulate, RATE_HZ};
+use host_tests::accuracy::{replay_config, simulate, thread_cpu_s, RATE_HZ};
 use host_tests::config::ReplayConfig;
+use host_tests::output::write_atomically;
 use host_tests::replay::{replay_rows, replay_serial, FilterKind};
 use host_tests::sim::Scenario;
 use host_tests::trace::TraceWriter;
@@ -28,7 +35,7 @@ use host_tests::trace::{EstimateRow, EstimateWriter, TraceColumns, TraceReader, 
 
 #[inline(never)]
 fn stage_parse(csv: &[u8]) -> usize {
-    let mut r = TraceReader::new(BufReader::with_capacity(1 << 16, csv)).unwrap();
+    let mut r = TraceReader::new(csv).unwrap();
     let mut k = 0;
     while let Some(row) = r.next_row().unwrap() {
         std::hint::black_box(row);
@@ -60,11 +67,21 @@ fn stage_format(est: &[EstimateRow], out: &mut Vec<u8>) {
 
 #[inline(never)]
 fn stage_serial(cfg: &ReplayConfig, csv: &[u8], out: &mut Vec<u8>) {
-    let reader = TraceReader::new(BufReader::with_capacity(1 << 16, csv)).unwrap();
+    let reader = TraceReader::new(csv).unwrap();
     let mut f = cfg.make_filter(FilterKind::Ekf);
     let mut cond = Conditioner::new(cfg.conditioning);
     let window = cfg.settings.init.window_s as f64;
     replay_serial(reader, out, f.as_mut(), &mut cond, window).unwrap();
+}
+
+#[inline(never)]
+fn stage_file(cfg: &ReplayConfig, trace: &std::path::Path, est: &std::path::Path) {
+    let file = std::fs::File::open(trace).expect("open the trace");
+    let reader = TraceReader::new(BufReader::with_capacity(1 << 16, file)).unwrap();
+    let mut f = cfg.make_filter(FilterKind::Ekf);
+    let mut cond = Conditioner::new(cfg.conditioning);
+    let window = cfg.settings.init.window_s as f64;
+    write_atomically(est, |w| replay_serial(reader, w, f.as_mut(), &mut cond, window)).unwrap();
 }
 
 fn main() {
@@ -94,12 +111,39 @@ fn main() {
             // Repeated (third argument) so that a sampling profiler sees mostly the replay,
             // not the simulation that made its input.
             let reps: usize = args.next().map_or(1, |s| s.parse().expect("REPS"));
+            let mut times = Vec::with_capacity(reps);
             for _ in 0..reps {
                 out.clear();
+                let c0 = thread_cpu_s().unwrap_or(0.0);
                 stage_serial(&cfg, &csv, &mut out);
+                times.push((thread_cpu_s().unwrap_or(0.0) - c0) * 1e9 / rows.len() as f64);
+            }
+            times.sort_by(f64::total_cmp);
+            if reps > 1 {
+                // Thread CPU time per row: best, and the median of the runs.
+                eprintln!("serial: best {:.1} ns/row, median {:.1}", times[0], times[reps / 2]);
             }
         }
-        _ => panic!("stage: parse, filter, format or serial"),
+        "file" => {
+            // `replay_serial` file to file, as the `replay` command writes its output (through
+            // `write_atomically`), repeated: the best wall time and the best thread CPU time
+            // (user and system) per row.
+            let reps: usize = args.next().map_or(1, |s| s.parse().expect("REPS"));
+            let dir = tempfile::tempdir().expect("temporary directory");
+            let (trace, est) = (dir.path().join("trace.csv"), dir.path().join("est.csv"));
+            std::fs::write(&trace, &csv).expect("write the trace");
+            let (mut wall, mut cpu) = (f64::INFINITY, f64::INFINITY);
+            for _ in 0..reps {
+                let (t0, c0) = (std::time::Instant::now(), thread_cpu_s().unwrap_or(0.0));
+                stage_file(&cfg, &trace, &est);
+                let c = thread_cpu_s().unwrap_or(0.0) - c0;
+                wall = wall.min(t0.elapsed().as_secs_f64());
+                cpu = cpu.min(c);
+            }
+            let per_row = |s: f64| s * 1e9 / rows.len() as f64;
+            eprintln!("file: best wall {:.1} ns/row, CPU {:.1}", per_row(wall), per_row(cpu));
+        }
+        _ => panic!("stage: parse, filter, format, serial or file"),
     }
     eprintln!("{stage}: {} rows, {} bytes in, {} bytes out", rows.len(), csv.len(), out.len());
 }

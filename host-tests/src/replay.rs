@@ -17,7 +17,7 @@ use ekf_core::conditioning::Conditioner;
 use ekf_core::{AttitudeFilter, Complementary, Ekf, GyroOnly, ImuSample, SsUkf, Ukf, Vec3};
 
 use crate::config::ReplayConfig;
-use crate::sim::{q_to_euler, DEG};
+use crate::sim::DEG;
 use crate::trace::{EstimateRow, EstimateWriter, TraceError, TraceReader, TraceRow};
 
 /// The filters a replay can run.
@@ -141,11 +141,20 @@ impl RmseAccumulator {
     }
 }
 
-/// Truth Euler angles of a row, degrees.
+/// Truth Euler angles (Z-Y-X) of a row's quaternion, which need not be exactly unit, degrees.
+///
+/// In `f64`, in the homogeneous form: roll and yaw are `atan2`s of quadratic forms that all
+/// scale by `|q|²`, so only pitch's sine needs the norm, one division (instead of a square
+/// root and four divisions to normalise `q` first); and `1 − 2(x² + y²)` becomes
+/// `w² − x² − y² + z²`, without its cancellation near ±90° of roll. The squares of the `f32`
+/// components are exact in `f64`.
 pub fn truth_euler_deg(q: [f32; 4]) -> [f64; 3] {
-    let q = q.map(f64::from);
-    let n = (q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]).sqrt();
-    q_to_euler(q.map(|c| c / n)).map(|a| a / DEG)
+    let [w, x, y, z] = q.map(f64::from);
+    let (ww, xx, yy, zz) = (w * w, x * x, y * y, z * z);
+    let roll = (2.0 * (y * z + w * x)).atan2((ww - xx) - (yy - zz));
+    let pitch = (2.0 * (w * y - x * z) / ((ww + xx) + (yy + zz))).clamp(-1.0, 1.0).asin();
+    let yaw = (2.0 * (x * y + w * z)).atan2((ww + xx) - (yy + zz));
+    [roll, pitch, yaw].map(f64::to_degrees)
 }
 
 /// What a replay did.
@@ -370,6 +379,37 @@ mod tests {
         assert!((r[0] - 12.5f64.sqrt()).abs() < 1e-12);
         assert_eq!(r[1], 0.0);
         assert!((r[2] - 1.0).abs() < 1e-9);
+    }
+
+    /// Z-Y-X angles in, `q = q_z(ψ)·q_y(θ)·q_x(φ)` built from axis rotations, scaled off unit
+    /// and rounded to `f32` as a trace stores it: the same angles out, to the `f32` rounding of
+    /// `q` (about 1e−7 rad, 6e−6°; pitch near ±90° loses more, so it stays within ±85° here).
+    #[test]
+    fn truth_euler_inverts_the_zyx_rotation() {
+        use crate::sim::{axis_angle, qmul};
+        let mut rng = crate::rng::Rng::new(7, 0);
+        let mut uniform = |lo: f64, hi: f64| lo + (hi - lo) * rng.uniform();
+        for k in 0..20_000 {
+            let e = [uniform(-179.0, 179.0), uniform(-85.0, 85.0), uniform(-179.0, 179.0)];
+            let q = qmul(
+                axis_angle([0.0, 0.0, 1.0], e[2] * DEG),
+                qmul(
+                    axis_angle([0.0, 1.0, 0.0], e[1] * DEG),
+                    axis_angle([1.0, 0.0, 0.0], e[0] * DEG),
+                ),
+            );
+            let scale = if k % 2 == 0 { 1.0 } else { uniform(0.99, 1.01) };
+            let got = truth_euler_deg(q.map(|c| (c * scale) as f32));
+            for i in 0..3 {
+                let err = wrap_deg(got[i] - e[i]).abs();
+                assert!(err < 2e-4, "{e:?} scale {scale}: {got:?}");
+            }
+        }
+        // Exact cases: identity, and a half turn about each axis.
+        assert_eq!(truth_euler_deg([1.0, 0.0, 0.0, 0.0]), [0.0, 0.0, 0.0]);
+        assert_eq!(truth_euler_deg([0.0, 1.0, 0.0, 0.0]), [180.0, 0.0, 0.0]);
+        assert_eq!(truth_euler_deg([0.0, 0.0, 0.0, 2.0]), [0.0, 0.0, 180.0]);
+        assert_eq!(truth_euler_deg([0.5f32.sqrt(), 0.0, 0.5f32.sqrt(), 0.0])[1], 90.0);
     }
 
     #[test]
