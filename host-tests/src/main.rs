@@ -9,7 +9,7 @@ use clap::{Parser, Subcommand};
 use ekf_core::conditioning::Conditioner;
 use host_tests::config::{parse_config, ReplayConfig};
 use host_tests::output::{produce_atomically, write_atomically};
-use host_tests::replay::{replay, FilterKind, ReplayError};
+use host_tests::replay::{replay, replay_serial, FilterKind, ReplayError};
 use host_tests::sim::Scenario;
 use host_tests::trace::{read_estimate_file, read_trace_file, TraceReader, TraceWriter};
 
@@ -165,13 +165,21 @@ fn run_replay(
     let mut f = cfg.make_filter(filter);
     let mut cond = Conditioner::new(cfg.conditioning);
     let window = cfg.settings.init.window_s as f64;
-    // Three threads: faster than `replay_serial` file to file when a second core is free; on a
-    // loaded machine the two trade places (see the replay-speed table of docs/accuracy.md).
-    let stats = write_atomically(out, |w| replay(reader, w, f.as_mut(), &mut cond, window))
-        .map_err(|e| match e {
-            ReplayError::Trace(e) => format!("{}: {e}", trace.display()),
-            ReplayError::Io(e) => format!("{}: {e}", out.display()),
-        })?;
+    // Three threads: faster than `replay_serial` file to file when a second core is free (see
+    // the replay-speed table of docs/accuracy.md); with one core, the threads would only take
+    // turns on it, so the single-thread replay does the same work without their hand-overs.
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let stats = write_atomically(out, |w| {
+        if cores > 1 {
+            replay(reader, w, f.as_mut(), &mut cond, window)
+        } else {
+            replay_serial(reader, w, f.as_mut(), &mut cond, window)
+        }
+    })
+    .map_err(|e| match e {
+        ReplayError::Trace(e) => format!("{}: {e}", trace.display()),
+        ReplayError::Io(e) => format!("{}: {e}", out.display()),
+    })?;
     let rate = stats.rows as f64 / stats.elapsed_s.max(1e-9);
     say!(
         "replay: {} rows through {} in {:.3} s ({:.0} rows/s) -> {}",

@@ -247,7 +247,9 @@ pub fn replay<R: BufRead + Send, W: Write + Send>(
 
 /// [`replay`] on the calling thread alone: each row parsed, filtered, formatted and written
 /// in turn (the output in 64 KiB blocks), no allocation per row. The same output and errors as
-/// [`replay`]; faster than it on one core, or when the other cores are busy.
+/// [`replay`] (tests/replay_paths.rs; after an error, the two have written different numbers of
+/// whole rows, the start of the output either way); faster than it on one core, or when the
+/// other cores are busy.
 pub fn replay_serial<R: BufRead, W: Write>(
     mut reader: TraceReader<R>,
     out: W,
