@@ -125,6 +125,10 @@ fn scenario_label(s: Scenario) -> String {
     }
 }
 
+/// Runs of each filter in the host timing, the best taken (load bursts on a shared machine
+/// last seconds).
+const TIMING_REPS: usize = 7;
+
 /// Time per `update` (plus reading the attitude and Euler angles, as the replay does) of every
 /// filter over `samples`; best of `reps` runs, ns, by the thread's CPU time where available.
 fn time_per_update(samples: &[ImuSample], reps: usize) -> Vec<f64> {
@@ -183,7 +187,7 @@ fn main() {
     eprintln!("accuracy runs: {accuracy_s:.1} s; timing ...");
     let timing_scenario = Scenario::RampHour;
     let samples = conditioned_samples(timing_scenario, 1);
-    let ns = time_per_update(&samples, 3);
+    let ns = time_per_update(&samples, TIMING_REPS);
     let sidx = |s: Scenario| scenarios.iter().position(|&x| x == s).unwrap();
     let fidx = |f: FilterKind| FilterKind::ALL.iter().position(|&x| x == f).unwrap();
     let runs = |s: Scenario, f: FilterKind| &res[&(sidx(s), fidx(f))];
@@ -316,7 +320,7 @@ fn main() {
     let _ = writeln!(
         md,
         "`update` plus reading the attitude and Euler angles, over the {} conditioned samples \
-         of `{}` (seed 1), best of 3 runs, one thread, timed by the thread's CPU time; ns per \
+         of `{}` (seed 1), best of {TIMING_REPS} runs, one thread, timed by the thread's CPU time; ns per \
          update on the machine that generated this file (it varies from run to run and machine to machine: compare the \
          ratios). *source*: the source's MATLAB time per cycle (Table 15) relative to its EKF.\n",
         samples.len(),

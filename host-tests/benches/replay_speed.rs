@@ -1,13 +1,15 @@
 //! Replay throughput: `cargo bench -p host-tests --bench replay_speed`.
 //!
 //! The one-hour `still-hour` trace (180 000 rows, seed 1) is simulated and written to memory
-//! once; then, best of 15 runs each (bursts of load on a shared machine last seconds), on one
-//! thread, timed by the thread's CPU time (`clock_gettime(CLOCK_THREAD_CPUTIME_ID)`; wall time
-//! where there is none) so that other processes sharing the cores do not inflate it:
+//! once; then 15 rounds, each running every measurement below once, and the best of each kept
+//! (bursts of load on a shared machine last seconds, and the rounds spread every figure over
+//! the same stretch of time). On one thread, timed by the thread's CPU time
+//! (`clock_gettime(CLOCK_THREAD_CPUTIME_ID)`; wall time where there is none) so that other
+//! processes sharing the cores do not inflate it:
 //! - **parse**: `TraceReader` over the CSV bytes (the byte slice itself as the `BufRead`: in
 //!   memory there is nothing to read, so no copy through a buffer);
 //! - **filter**: the replay loop (`replay_rows`: conditioning, `dt`, the EKF, RMSE) on parsed
-//!   rows, estimates discarded;
+//!   rows, estimates kept in memory;
 //! - **format**: `EstimateWriter` of the estimate rows into memory;
 //!
 //! and end to end, from the CSV bytes in memory to an estimate CSV in memory:
@@ -15,8 +17,9 @@
 //! - `replay` (parsing and formatting on their own threads), wall time;
 //!
 //! and file to file as the `replay` command does it (trace file in the page cache, output
-//! through `write_atomically` to a temporary directory next to the target), wall time, with
-//! each of the two. `--markdown docs/accuracy.md` also writes the table into
+//! through `write_atomically` to a temporary directory), wall time, with each of the two, and
+//! the thread CPU time of `replay_serial` (user and system: the kernel's copies and page-cache
+//! work count, on the one core). `--markdown docs/accuracy.md` also writes the table into
 //! docs/accuracy.md.
 
 use std::fmt::Write as _;
@@ -36,30 +39,21 @@ const SECTION: &str = "replay-speed";
 const COMMAND: &str =
     "cargo bench -p host-tests --bench replay_speed -- --markdown docs/accuracy.md";
 
-/// Best of [`REPS`] runs of `f`: thread CPU time where available, else wall time, s.
-fn best<F: FnMut()>(mut f: F) -> f64 {
-    let mut best = f64::INFINITY;
-    for _ in 0..REPS {
-        let (t, c) = (Instant::now(), thread_cpu_s());
-        f();
-        let d = match (c, thread_cpu_s()) {
-            (Some(a), Some(b)) => b - a,
-            _ => t.elapsed().as_secs_f64(),
-        };
-        best = best.min(d);
+/// CPU time of the calling thread for `f` where available, else its wall time, s.
+fn cpu<F: FnOnce()>(f: F) -> f64 {
+    let (t, c) = (Instant::now(), thread_cpu_s());
+    f();
+    match (c, thread_cpu_s()) {
+        (Some(a), Some(b)) => b - a,
+        _ => t.elapsed().as_secs_f64(),
     }
-    best
 }
 
-/// Best of [`REPS`] runs of `f`, wall time, s.
-fn best_wall<F: FnMut()>(mut f: F) -> f64 {
-    let mut best = f64::INFINITY;
-    for _ in 0..REPS {
-        let t = Instant::now();
-        f();
-        best = best.min(t.elapsed().as_secs_f64());
-    }
-    best
+/// Wall time of `f`, s.
+fn wall<F: FnOnce()>(f: F) -> f64 {
+    let t = Instant::now();
+    f();
+    t.elapsed().as_secs_f64()
 }
 
 fn main() {
@@ -88,85 +82,94 @@ fn main() {
     let cfg = replay_config(scenario);
     let window = cfg.settings.init.window_s as f64;
 
-    let parse = best(|| {
-        let mut r = TraceReader::new(&csv[..]).unwrap();
-        let mut k = 0usize;
-        while let Some(row) = r.next_row().unwrap() {
-            std::hint::black_box(row);
-            k += 1;
-        }
-        assert_eq!(k, rows.len());
-    });
-
+    // One estimate buffer and one output buffer for all runs, so that their pages are mapped
+    // once (first-touch page faults would otherwise be a large part of the format stage).
     let mut est: Vec<EstimateRow> = Vec::with_capacity(rows.len());
-    let filter = best(|| {
-        est.clear();
-        let mut f = cfg.make_filter(FilterKind::Ekf);
-        let mut cond = Conditioner::new(cfg.conditioning);
-        replay_rows(rows.iter().map(|r| Ok(*r)), f.as_mut(), &mut cond, window, |_, e| {
-            est.push(*e);
-            Ok(())
-        })
-        .unwrap();
-    });
-
-    // One output buffer for all runs, so that its pages are mapped once (first-touch page
-    // faults would otherwise be a large part of the format stage).
     let mut out: Vec<u8> = Vec::with_capacity(32 << 20);
-    let mut out_len = 0;
-    let format = best(|| {
-        out.clear();
-        let mut w = EstimateWriter::new(&mut out).unwrap();
-        for e in &est {
-            w.row(e).unwrap();
-        }
-        w.finish().unwrap();
-        out_len = out.len();
-    });
-
-    let end_to_end = best_wall(|| {
-        let reader = TraceReader::new(&csv[..]).unwrap();
-        let mut f = cfg.make_filter(FilterKind::Ekf);
-        let mut cond = Conditioner::new(cfg.conditioning);
-        out.clear();
-        let s = replay(reader, &mut out, f.as_mut(), &mut cond, window).unwrap();
-        assert_eq!(s.rows as usize, rows.len());
-    });
-
-    let serial = best(|| {
-        let reader = TraceReader::new(&csv[..]).unwrap();
-        let mut f = cfg.make_filter(FilterKind::Ekf);
-        let mut cond = Conditioner::new(cfg.conditioning);
-        out.clear();
-        let s = replay_serial(reader, &mut out, f.as_mut(), &mut cond, window).unwrap();
-        assert_eq!(s.rows as usize, rows.len());
-        assert_eq!(out.len(), out_len);
-    });
-
+    let mut out_len = None;
     // File to file, as `host-tests replay` does it.
     let dir = tempfile::tempdir().unwrap();
     let trace_path = dir.path().join("trace.csv");
     let est_path = dir.path().join("est.csv");
     std::fs::write(&trace_path, &csv).unwrap();
     let file_to_file = |threads: bool| {
-        best_wall(|| {
-            let file = std::fs::File::open(&trace_path).unwrap();
-            let reader = TraceReader::new(BufReader::with_capacity(1 << 16, file)).unwrap();
-            let mut f = cfg.make_filter(FilterKind::Ekf);
-            let mut cond = Conditioner::new(cfg.conditioning);
-            let s = write_atomically(&est_path, |w| {
-                if threads {
-                    replay(reader, w, f.as_mut(), &mut cond, window)
-                } else {
-                    replay_serial(reader, w, f.as_mut(), &mut cond, window)
-                }
-            })
-            .unwrap();
-            assert_eq!(s.rows as usize, rows.len());
+        let file = std::fs::File::open(&trace_path).unwrap();
+        let reader = TraceReader::new(BufReader::with_capacity(1 << 16, file)).unwrap();
+        let mut f = cfg.make_filter(FilterKind::Ekf);
+        let mut cond = Conditioner::new(cfg.conditioning);
+        let s = write_atomically(&est_path, |w| {
+            if threads {
+                replay(reader, w, f.as_mut(), &mut cond, window)
+            } else {
+                replay_serial(reader, w, f.as_mut(), &mut cond, window)
+            }
         })
+        .unwrap();
+        assert_eq!(s.rows as usize, rows.len());
     };
-    let file_serial = file_to_file(false);
-    let file_threads = file_to_file(true);
+
+    // Round by round, every measurement once per round, the best of each kept: the rounds
+    // spread every figure over the same stretch of time, so that a quiet or a busy spell of a
+    // shared machine does not favour one of them.
+    let mut b = [f64::INFINITY; 8];
+    for _ in 0..REPS {
+        let times = [
+            cpu(|| {
+                let mut r = TraceReader::new(&csv[..]).unwrap();
+                let mut k = 0usize;
+                while let Some(row) = r.next_row().unwrap() {
+                    std::hint::black_box(row);
+                    k += 1;
+                }
+                assert_eq!(k, rows.len());
+            }),
+            cpu(|| {
+                est.clear();
+                let mut f = cfg.make_filter(FilterKind::Ekf);
+                let mut cond = Conditioner::new(cfg.conditioning);
+                replay_rows(rows.iter().map(|r| Ok(*r)), f.as_mut(), &mut cond, window, |_, e| {
+                    est.push(*e);
+                    Ok(())
+                })
+                .unwrap();
+            }),
+            cpu(|| {
+                out.clear();
+                let mut w = EstimateWriter::new(&mut out).unwrap();
+                for e in &est {
+                    w.row(e).unwrap();
+                }
+                w.finish().unwrap();
+            }),
+            cpu(|| {
+                let reader = TraceReader::new(&csv[..]).unwrap();
+                let mut f = cfg.make_filter(FilterKind::Ekf);
+                let mut cond = Conditioner::new(cfg.conditioning);
+                let formatted = out.len();
+                out.clear();
+                let s = replay_serial(reader, &mut out, f.as_mut(), &mut cond, window).unwrap();
+                assert_eq!(s.rows as usize, rows.len());
+                assert_eq!(out.len(), formatted, "the format stage's bytes");
+            }),
+            wall(|| {
+                let reader = TraceReader::new(&csv[..]).unwrap();
+                let mut f = cfg.make_filter(FilterKind::Ekf);
+                let mut cond = Conditioner::new(cfg.conditioning);
+                out.clear();
+                let s = replay(reader, &mut out, f.as_mut(), &mut cond, window).unwrap();
+                assert_eq!(s.rows as usize, rows.len());
+                out_len = Some(out.len());
+            }),
+            wall(|| file_to_file(false)),
+            wall(|| file_to_file(true)),
+            cpu(|| file_to_file(false)),
+        ];
+        for (b, t) in b.iter_mut().zip(times) {
+            *b = b.min(t);
+        }
+    }
+    let [parse, filter, format, serial, end_to_end, file_serial, file_threads, file_serial_cpu] = b;
+    let out_len = out_len.unwrap_or(0);
 
     let ns = |s: f64| s * 1e9 / n;
     let total = ns(parse) + ns(filter) + ns(format);
@@ -175,9 +178,9 @@ fn main() {
     let _ = writeln!(
         md,
         "Generated by `{COMMAND}`: {} rows of `{}` (seed 1), {} bytes of trace CSV in, {} bytes \
-         of estimate CSV out, default EKF, best of {REPS} runs ({clock} for the stages and \
-         `replay_serial` in memory, wall time for the others). Machine-dependent: the figures \
-         vary from run to run, and with the load of the machine.\n",
+         of estimate CSV out, default EKF, best of {REPS} rounds of all the measurements \
+         ({clock} where marked CPU, wall time where marked wall). Machine-dependent: the \
+         figures vary from run to run, and with the load of the machine.\n",
         rows.len(),
         scenario.name(),
         csv.len(),
@@ -186,13 +189,14 @@ fn main() {
     let _ = writeln!(md, "| stage | ns/row | M rows/s |");
     let _ = writeln!(md, "|---|---|---|");
     for (name, v) in [
-        ("parse (`TraceReader`)", ns(parse)),
-        ("filter (`replay_rows`: conditioning, EKF, RMSE)", ns(filter)),
-        ("format (`EstimateWriter`)", ns(format)),
+        ("parse (`TraceReader`, CPU)", ns(parse)),
+        ("filter (`replay_rows`: conditioning, EKF, RMSE; CPU)", ns(filter)),
+        ("format (`EstimateWriter`, CPU)", ns(format)),
         ("sum of the three", total),
-        ("`replay_serial` end to end, memory to memory, 1 thread", ns(serial)),
+        ("`replay_serial` end to end, memory to memory, 1 thread (CPU)", ns(serial)),
         ("`replay` end to end, memory to memory, 3 threads (wall)", ns(end_to_end)),
         ("file to file, 1 thread (`replay_serial`, wall)", ns(file_serial)),
+        ("file to file, 1 thread (`replay_serial`, CPU: user + system)", ns(file_serial_cpu)),
         ("file to file, 3 threads (`replay`, wall)", ns(file_threads)),
     ] {
         let _ = writeln!(md, "| {name} | {v:.0} | {:.2} |", 1e3 / v);
