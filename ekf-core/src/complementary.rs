@@ -91,7 +91,7 @@ impl AttitudeFilter for Complementary {
         let mut flags = c.flags;
         if let Some((a, n)) = c.accel_g {
             let gate = self.gyro.gate_mut();
-            match gate.pre_check(c.dt_rate, a, n) {
+            match gate.pre_check(c.dt_rate, a, n, 0.0) {
                 PreCheck::Reject(f) => flags |= f,
                 PreCheck::Pass { .. } => {
                     gate.accepted();

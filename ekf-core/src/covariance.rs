@@ -66,9 +66,18 @@ pub struct TiltInnovation {
     pub z2: f32,
     /// Inverse innovation variances of the two scalar updates, rad⁻².
     pub s_inv: [f32; 2],
+    /// Scale of the bias rows' gain in the update, in [0, 1]: 1 is the Kalman gain; less
+    /// learns the bias more slowly from this measurement (exact Joseph-form covariance for the
+    /// scaled gain). [`Cov6::tilt_innovation`] sets 1.
+    pub bias_gain: f32,
+}
+
+impl TiltInnovation {
     /// Normalised innovation squared `zᵀ S⁻¹ z` of the joint measurement (the sum of the two
     /// scalar ones).
-    pub nis: f32,
+    pub fn nis(&self) -> f32 {
+        self.z[0] * self.z[0] * self.s_inv[0] + self.z2 * self.z2 * self.s_inv[1]
+    }
 }
 
 impl Cov6 {
@@ -206,8 +215,7 @@ impl Cov6 {
             return None;
         }
         let inv2 = 1.0 / s2;
-        let nis = z[0] * z[0] * inv1 + z2 * z2 * inv2;
-        Some(TiltInnovation { z, z2, s_inv: [inv1, inv2], nis })
+        Some(TiltInnovation { z, z2, s_inv: [inv1, inv2], bias_gain: 1.0 })
     }
 
     /// Kalman update with the tilt measurement (`H` selects states 0 and 1). With
@@ -231,6 +239,12 @@ impl Cov6 {
     fn update_tracked(&mut self, t: &TiltInnovation, gain: [bool; N]) -> [f32; N] {
         let mut dx = [0.0f32; N];
         let n = rolled();
+        // Gain scale per row: 0 frozen, 1 tilt (and yaw), `bias_gain` on the biases.
+        let k: [f32; N] = core::array::from_fn(|i| match (gain[i], i >= 3) {
+            (false, _) => 0.0,
+            (true, false) => 1.0,
+            (true, true) => t.bias_gain,
+        });
         for j in 0..2 {
             let first = j == 0;
             let (z, inv) = if first { (t.z[0], t.s_inv[0]) } else { (t.z2, t.s_inv[1]) };
@@ -239,11 +253,13 @@ impl Cov6 {
             for i in 0..n {
                 let g = c[i] * inv;
                 if gain[i] {
-                    dx[i] = if first { g * z } else { dx[i] + g * z };
+                    dx[i] = if first { k[i] * g * z } else { dx[i] + k[i] * g * z };
                 }
                 for l in i..n {
-                    if gain[i] || gain[l] {
-                        let v = p[i][l] - g * c[l];
+                    // Joseph form with the scaled gains K_i = k_i·c_i/s.
+                    let f = k[i] + k[l] - k[i] * k[l];
+                    if f != 0.0 {
+                        let v = p[i][l] - f * g * c[l];
                         p[i][l] = v;
                         p[l][i] = v;
                     }
@@ -255,10 +271,14 @@ impl Cov6 {
 
     /// [`Cov6::update_tilt`] with the yaw row untracked (the default configuration's hot path),
     /// unrolled: two scalar updates, `H = e₀` with innovation `z₀`, then `H = e₁` with `z2`, on
-    /// the tilt and bias rows.
+    /// the tilt and bias rows. The bias rows' gain is scaled by `bias_gain` = β; the Joseph form
+    /// with that gain changes only the bias block, by the factor `2β − β²`.
     #[inline(always)]
     fn update_untracked(&mut self, t: &TiltInnovation) -> [f32; N] {
         let mut dx = [0.0f32; N];
+        // The bias rows: the state's gain ×β, the covariance's ×(2β − β²).
+        let b = t.bias_gain;
+        let bb = b * (2.0 - b);
         unroll!(j in [0, 1] {
             let first = j == 0;
             let (z, inv) = if first { (t.z[0], t.s_inv[0]) } else { (t.z2, t.s_inv[1]) };
@@ -266,9 +286,17 @@ impl Cov6 {
             // c = P e_j, g = c / s; P' = P − g cᵀ (yaw row and column untouched).
             let mut c = [0.0f32; N];
             let mut g = [0.0f32; N];
+            // The gain for the state (g·β on the bias rows) and for the covariance (g·(2β − β²)
+            // on the bias block, g elsewhere).
+            let mut gp = [0.0f32; N];
             unroll!(i in [0, 1, 3, 4, 5] {
                 c[i] = p[i][j];
                 g[i] = c[i] * inv;
+                gp[i] = g[i];
+                if i >= 3 {
+                    gp[i] = bb * g[i];
+                    g[i] *= b;
+                }
             });
             unroll!(i in [0, 1, 3, 4, 5] {
                 dx[i] = if first { g[i] * z } else { dx[i] + g[i] * z };
@@ -276,7 +304,8 @@ impl Cov6 {
             unroll!(i in [0, 1, 3, 4, 5] {
                 unroll!(l in [0, 1, 3, 4, 5] {
                     if l >= i {
-                        let v = p[i][l] - g[i] * c[l];
+                        // Rows 0–1 (tilt, and tilt–bias): c_i c_l / s; bias block: ×(2β − β²).
+                        let v = p[i][l] - gp[i] * c[l];
                         p[i][l] = v;
                         p[l][i] = v;
                     }
@@ -480,7 +509,7 @@ mod tests {
             let s_inv = [[s11 / det, -s01 / det], [-s01 / det, s00 / det]];
             let nis = z[0] * (s_inv[0][0] * z[0] + s_inv[0][1] * z[1])
                 + z[1] * (s_inv[1][0] * z[0] + s_inv[1][1] * z[1]);
-            assert!((t.nis - nis).abs() < 1e-4 * nis, "{} vs {nis}", t.nis);
+            assert!((t.nis() - nis).abs() < 1e-4 * nis, "{} vs {nis}", t.nis());
             let mut k = [[0.0f32; 2]; 6];
             for i in 0..6 {
                 if !frozen[i] {

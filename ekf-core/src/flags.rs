@@ -42,6 +42,10 @@ impl Flags {
     pub const HEALTH_RESET: Flags = Flags(1 << 12);
     /// The innovation gate was bypassed to reacquire tilt after a long innovation rejection.
     pub const REACQUIRE: Flags = Flags(1 << 13);
+    /// The initialisation window was not still: the filter started at once from the
+    /// configured gyro bias with a wide covariance, and the bias is still less certain than a
+    /// still window would have made it.
+    pub const MOVING_START: Flags = Flags(1 << 14);
 
     /// True when every flag of `other` is set in `self`.
     #[inline]
@@ -103,6 +107,7 @@ mod tests {
             Flags::MAG_REJECTED,
             Flags::HEALTH_RESET,
             Flags::REACQUIRE,
+            Flags::MOVING_START,
         ];
         let mut acc = Flags::NONE;
         for f in all {

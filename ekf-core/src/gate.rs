@@ -14,6 +14,10 @@
 
 use crate::{fcmp, settings::GateSettings, Flags, Vec3};
 
+/// `innovation_chi2` at or above this turns the innovation test off (the registry's largest
+/// value; the default).
+pub const INNOVATION_GATE_OFF: f32 = 1e6;
+
 /// Gate state: previous sample, hold-off and rejection timers.
 #[derive(Clone, Copy, Debug)]
 pub struct AccelGate {
@@ -53,17 +57,20 @@ impl AccelGate {
     }
 
     /// Magnitude, jump and hold-off checks for a valid sample `a_g` (g, body) of norm `norm_g`
-    /// arriving `dt` s after the previous one.
-    pub fn pre_check(&mut self, dt: f32, a_g: Vec3, norm_g: f32) -> PreCheck {
+    /// arriving `dt` s after the previous one. A jump is a change larger than
+    /// `√(jump_g² + allowance)` (`allowance` in g²: what the current motion explains).
+    pub fn pre_check(&mut self, dt: f32, a_g: Vec3, norm_g: f32, allowance: f32) -> PreCheck {
         let j = self.settings.jump_g;
+        let j2 = j * j + allowance;
         let jump = self
             .prev
             .map(|p| {
                 let d = a_g - p;
-                // |d|² > j² needs some |dᵢ| > j/2 (else |d|² ≤ 3j²/4): skip the squares then.
+                // |d|² > j2 ≥ j² needs some |dᵢ| > j/2 (else |d|² ≤ 3j²/4): skip the squares
+                // then.
                 let h = crate::mathf::half(j);
                 !(fcmp::abs_le(d.x, h) && fcmp::abs_le(d.y, h) && fcmp::abs_le(d.z, h))
-                    && fcmp::gt(d.norm_sq(), j * j)
+                    && fcmp::gt(d.norm_sq(), j2)
             })
             .unwrap_or(false);
         self.prev = Some(a_g);
@@ -132,14 +139,14 @@ mod tests {
 
     #[test]
     fn magnitude_gate_at_five_percent() {
-        let mut g = AccelGate::new(GateSettings { jump_g: 1.0, ..Default::default() });
-        assert!(matches!(g.pre_check(DT, level(), 1.0), PreCheck::Pass { .. }));
-        assert!(matches!(g.pre_check(DT, level() * 1.04, 1.04), PreCheck::Pass { .. }));
-        match g.pre_check(DT, level() * 1.06, 1.06) {
+        let mut g = AccelGate::new(GateSettings { jump_g: 1.0, ..GateSettings::SOURCE });
+        assert!(matches!(g.pre_check(DT, level(), 1.0, 0.0), PreCheck::Pass { .. }));
+        assert!(matches!(g.pre_check(DT, level() * 1.04, 1.04, 0.0), PreCheck::Pass { .. }));
+        match g.pre_check(DT, level() * 1.06, 1.06, 0.0) {
             PreCheck::Reject(f) => assert!(f.contains(Flags::ACCEL_GATED)),
             p => panic!("{p:?}"),
         }
-        match g.pre_check(DT, level() * 0.94, 0.94) {
+        match g.pre_check(DT, level() * 0.94, 0.94, 0.0) {
             PreCheck::Reject(f) => assert!(f.contains(Flags::ACCEL_GATED)),
             p => panic!("{p:?}"),
         }
@@ -148,18 +155,18 @@ mod tests {
     #[test]
     fn a_jump_that_keeps_the_norm_is_a_knock_and_holds_off() {
         let mut g = AccelGate::new(GateSettings::default());
-        assert!(matches!(g.pre_check(DT, level(), 1.0), PreCheck::Pass { .. }));
+        assert!(matches!(g.pre_check(DT, level(), 1.0, 0.0), PreCheck::Pass { .. }));
         // Lateral tap: the norm stays within 1 %, the direction jumps by ~6°.
         let tap = Vec3::new(0.1, 0.0, -0.995);
-        match g.pre_check(DT, tap, tap.norm()) {
+        match g.pre_check(DT, tap, tap.norm(), 0.0) {
             PreCheck::Reject(f) => assert!(f.contains(Flags::ACCEL_KNOCK)),
             p => panic!("{p:?}"),
         }
         // Back to level: that is a jump too, then the hold-off runs for 0.1 s.
-        assert!(matches!(g.pre_check(DT, level(), 1.0), PreCheck::Reject(_)));
+        assert!(matches!(g.pre_check(DT, level(), 1.0, 0.0), PreCheck::Reject(_)));
         let mut passed_at = None;
         for k in 0..20 {
-            if let PreCheck::Pass { .. } = g.pre_check(DT, level(), 1.0) {
+            if let PreCheck::Pass { .. } = g.pre_check(DT, level(), 1.0, 0.0) {
                 passed_at = Some(k);
                 break;
             }
@@ -170,13 +177,13 @@ mod tests {
 
     #[test]
     fn innovation_lockout_is_bypassed_after_reacquire_time_and_long_flag_is_raised() {
-        let s = GateSettings { holdoff_s: 0.0, ..Default::default() };
+        let s = GateSettings { holdoff_s: 0.0, ..GateSettings::SOURCE };
         let mut g = AccelGate::new(s);
         let mut t = 0.0;
         let mut saw_long = false;
         loop {
             t += DT;
-            match g.pre_check(DT, level(), 1.0) {
+            match g.pre_check(DT, level(), 1.0, 0.0) {
                 PreCheck::Pass { bypass_innovation } => {
                     match g.innovation(DT, 100.0, bypass_innovation) {
                         Ok(f) => {
@@ -196,7 +203,7 @@ mod tests {
         // A long magnitude rejection raises the long flag after long_reject_s.
         let mut flags = Flags::NONE;
         for _ in 0..(s.long_reject_s / DT) as usize + 2 {
-            if let PreCheck::Reject(f) = g.pre_check(DT, level() * 1.2, 1.2) {
+            if let PreCheck::Reject(f) = g.pre_check(DT, level() * 1.2, 1.2, 0.0) {
                 flags = f;
             }
         }

@@ -27,7 +27,7 @@ impl GyroOnly {
             settings,
             q: Quaternion::from_yaw(settings.init.initial_yaw),
             bias: settings.init.gyro_bias,
-            init: Some(Initializer::new(settings.init)),
+            init: Some(Initializer::new(&settings)),
             gate: AccelGate::new(settings.gate),
         }
     }

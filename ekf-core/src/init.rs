@@ -5,7 +5,7 @@
 use crate::{
     gate::{AccelGate, PreCheck},
     mathf,
-    settings::InitSettings,
+    settings::{InitSettings, Settings},
     validate::Checked,
     Euler, Quaternion, Vec3,
 };
@@ -38,6 +38,11 @@ pub enum InitStep {
     Done(Quaternion, Vec3),
 }
 
+/// Samples before the window's stillness is judged (and at least [`MIN_CHECK_S`]).
+pub const MIN_CHECK_SAMPLES: u32 = 10;
+/// Time before the window's stillness is judged, s.
+pub const MIN_CHECK_S: f32 = 0.2;
+
 /// Accumulates the initialisation window.
 #[derive(Clone, Copy, Debug)]
 pub struct Initializer {
@@ -45,23 +50,76 @@ pub struct Initializer {
     yaw: f32,
     elapsed: f32,
     acc_sum: Vec3,
+    acc_sq: Vec3,
     acc_n: u32,
     gyro_sum: Vec3,
+    gyro_sq: Vec3,
     gyro_n: u32,
+    /// Largest per-sample gyro variance of a still window at the reference rate, (rad/s)².
+    gyro_var_max: Vec3,
+    /// Reference rate of `gyro_var_max`, Hz.
+    gyro_ref_rate_hz: f32,
+    /// Largest accelerometer variance per axis of a still window, g².
+    accel_var_max: f32,
+    moving: bool,
 }
 
 impl Initializer {
-    /// A new window with the settings' initial yaw.
-    pub fn new(settings: InitSettings) -> Self {
+    /// A new window with the settings' initial yaw. A window is still when, per axis, the
+    /// gyro's variance is within `rest.gyro_var_factor` times the configured noise, the
+    /// accelerometer's standard deviation within `rest.accel_std_max_g` (the rest detector's
+    /// criteria), and the mean gyro within 3 `moving_bias_sigma` of `gyro_bias`.
+    pub fn new(s: &Settings) -> Self {
         Initializer {
-            settings,
-            yaw: settings.initial_yaw,
+            settings: s.init,
+            yaw: s.init.initial_yaw,
             elapsed: 0.0,
             acc_sum: Vec3::ZERO,
+            acc_sq: Vec3::ZERO,
             acc_n: 0,
             gyro_sum: Vec3::ZERO,
+            gyro_sq: Vec3::ZERO,
             gyro_n: 0,
+            gyro_var_max: s.noise.gyro_var * s.rest.gyro_var_factor,
+            gyro_ref_rate_hz: s.noise.gyro_ref_rate_hz.max(1e-3),
+            accel_var_max: s.rest.accel_std_max_g * s.rest.accel_std_max_g,
+            moving: false,
         }
+    }
+
+    /// True when the window was found moving: it ended early, the bias was not taken from it.
+    pub fn was_moving(&self) -> bool {
+        self.moving
+    }
+
+    /// The stillness test of [`Initializer::new`] on the samples so far.
+    fn is_moving(&self) -> bool {
+        if self.gyro_n < MIN_CHECK_SAMPLES || !(self.elapsed >= MIN_CHECK_S) {
+            return false;
+        }
+        let n = self.gyro_n as f32;
+        let mean = (self.gyro_sum * (1.0 / n)).to_array();
+        // Per-sample noise scales with the sample rate (constant noise density).
+        let var_max = (self.gyro_var_max * (n / self.elapsed / self.gyro_ref_rate_hz)).to_array();
+        let sq = self.gyro_sq.to_array();
+        let configured = self.settings.gyro_bias.to_array();
+        let off_max = 3.0 * self.settings.moving_bias_sigma;
+        for (((m, v), s), c) in mean.iter().zip(var_max).zip(sq).zip(configured) {
+            let var = s / n - m * m;
+            if !(var <= v) || !(mathf::abs(m - c) <= off_max) {
+                return true;
+            }
+        }
+        if self.acc_n >= MIN_CHECK_SAMPLES {
+            let k = 1.0 / self.acc_n as f32;
+            let am = (self.acc_sum * k).to_array();
+            for (m, s) in am.iter().zip(self.acc_sq.to_array()) {
+                if !(s * k - m * m <= self.accel_var_max) {
+                    return true;
+                }
+            }
+        }
+        false
     }
 
     /// Set the yaw (rad) the window will start from.
@@ -86,7 +144,11 @@ impl Initializer {
     /// [`BIAS_VAR_FLOOR`]. `None` when the bias is not estimated from the window. The filters
     /// start their bias covariance from it.
     pub fn bias_variance(&self, noise: &crate::settings::NoiseSettings) -> Option<Vec3> {
-        if !self.settings.estimate_gyro_bias || self.gyro_n == 0 || !(self.elapsed > 0.0) {
+        if !self.settings.estimate_gyro_bias
+            || self.moving
+            || self.gyro_n == 0
+            || !(self.elapsed > 0.0)
+        {
             return None;
         }
         let n = self.gyro_n as f32;
@@ -101,10 +163,12 @@ impl Initializer {
         self.elapsed += dt;
         if let Some(g) = gyro {
             self.gyro_sum += g;
+            self.gyro_sq += Vec3::new(g.x * g.x, g.y * g.y, g.z * g.z);
             self.gyro_n += 1;
         }
         if let Some(a) = accel {
             self.acc_sum += a;
+            self.acc_sq += Vec3::new(a.x * a.x, a.y * a.y, a.z * a.z);
             self.acc_n += 1;
         }
         let q = if self.acc_n > 0 {
@@ -115,6 +179,11 @@ impl Initializer {
         // Half a sample of tolerance: f32 sums of dt fall just short of the window (500 × 0.02
         // s = 9.9999 s), and the window must end on the sample nearest its length, not on the
         // next one, which may already be moving.
+        if self.acc_n > 0 && self.is_moving() {
+            // Not still: start now, from the configured bias (the filter widens its covariance).
+            self.moving = true;
+            return InitStep::Done(q, self.settings.gyro_bias);
+        }
         if self.elapsed >= self.settings.window_s - 0.5 * dt && self.acc_n > 0 {
             let bias = if self.settings.estimate_gyro_bias && self.gyro_n > 0 {
                 self.gyro_sum * (1.0 / self.gyro_n as f32)
@@ -132,7 +201,7 @@ impl Initializer {
 /// magnitude, jump and hold-off checks enter the tilt average.
 #[inline(never)] // the first seconds only: out of the update's hot code
 pub fn feed(init: &mut Initializer, gate: &mut AccelGate, c: &Checked) -> InitStep {
-    let a = c.accel_g.and_then(|(a, n)| match gate.pre_check(c.dt_rate, a, n) {
+    let a = c.accel_g.and_then(|(a, n)| match gate.pre_check(c.dt_rate, a, n, 0.0) {
         PreCheck::Pass { .. } => Some(a),
         PreCheck::Reject(_) => None,
     });
@@ -155,8 +224,8 @@ mod tests {
 
     #[test]
     fn window_averages_then_finishes() {
-        let s = InitSettings { window_s: 1.0, ..Default::default() };
-        let mut init = Initializer::new(s);
+        let s = settings(1.0);
+        let mut init = Initializer::new(&s);
         init.set_yaw(deg(30.0));
         let truth = Euler::new(deg(5.0), deg(-3.0), deg(30.0)).to_quaternion();
         let f = truth.down_in_body() * -1.0;
@@ -165,7 +234,11 @@ mod tests {
         for k in 0..60 {
             // Alternating noise that averages out exactly over pairs.
             let n = if k % 2 == 0 { 0.01 } else { -0.01 };
-            match init.push(0.02, Some(bias + Vec3::new(n, n, n)), Some(f + Vec3::new(n, -n, n))) {
+            match init.push(
+                0.02,
+                Some(bias + Vec3::new(n, n, 0.05 * n)),
+                Some(f + Vec3::new(n, -n, n) * 0.5),
+            ) {
                 InitStep::Pending(_) => assert!(k < 50, "still pending at {k}"),
                 InitStep::Done(q, b) => {
                     // 1 s of 0.02 s steps: done at the 50th sample, not the 51st, although the f32 sum
@@ -179,19 +252,67 @@ mod tests {
         let (q, b) = done.unwrap();
         assert!(q.angle_to(truth) < 1e-4);
         assert!((b - bias).max_abs() < 1e-6);
+        assert!(!init.was_moving());
+    }
+
+    fn settings(window_s: f32) -> Settings {
+        let mut s = Settings::default();
+        s.init.window_s = window_s;
+        s
+    }
+
+    /// Feed `rate(t)` (rad/s) and a level accelerometer at 50 Hz; the step that finished.
+    fn run_window(init: &mut Initializer, rate: impl Fn(f32) -> Vec3) -> (usize, Vec3) {
+        for k in 0..1000 {
+            let t = k as f32 * 0.02;
+            if let InitStep::Done(_, b) =
+                init.push(0.02, Some(rate(t)), Some(Vec3::new(0.0, 0.0, -1.0)))
+            {
+                return (k, b);
+            }
+        }
+        panic!("window never finished");
+    }
+
+    #[test]
+    fn a_moving_window_ends_at_once_with_the_configured_bias() {
+        let s = settings(10.0);
+        let configured = s.init.gyro_bias;
+        // A 15° pitch sine at 0.1 Hz: rate amplitude 9.4 °/s, far beyond the noise.
+        let mut init = Initializer::new(&s);
+        let (k, b) = run_window(&mut init, |t| {
+            configured + Vec3::new(0.0, deg(9.42) * mathf::cos(0.628 * t), 0.0)
+        });
+        assert!(init.was_moving());
+        assert_eq!(b, configured);
+        // Judged after MIN_CHECK_SAMPLES, long before the 10 s window.
+        assert!(k < 20, "{k}");
+        assert!(init.bias_variance(&s.noise).is_none());
+        // A steady 10 °/s turn has no spread, but no gyro is that far off its configured bias.
+        let mut init = Initializer::new(&s);
+        let (_, b) = run_window(&mut init, |_| configured + Vec3::new(0.0, 0.0, deg(10.0)));
+        assert!(init.was_moving());
+        assert_eq!(b, configured);
+        // The same window still, with a bias 1 °/s off the configured one: averaged for 10 s.
+        let mut init = Initializer::new(&s);
+        let off = configured + Vec3::new(deg(1.0), 0.0, 0.0);
+        let (k, b) = run_window(&mut init, |_| off);
+        assert!(!init.was_moving());
+        assert_eq!(k, 499);
+        assert!((b - off).max_abs() < 1e-6);
     }
 
     #[test]
     fn waits_for_an_accelerometer_sample_and_uses_configured_bias_without_gyro() {
-        let s = InitSettings { window_s: 0.1, ..Default::default() };
-        let mut init = Initializer::new(s);
+        let s = settings(0.1);
+        let mut init = Initializer::new(&s);
         for _ in 0..10 {
             assert!(matches!(init.push(0.02, None, None), InitStep::Pending(_)));
         }
         match init.push(0.02, None, Some(Vec3::new(0.0, 0.0, -1.0))) {
             InitStep::Done(q, b) => {
                 assert!(q.angle_to(Quaternion::IDENTITY) < 1e-6);
-                assert_eq!(b, s.gyro_bias);
+                assert_eq!(b, s.init.gyro_bias);
             }
             other => panic!("{other:?}"),
         }

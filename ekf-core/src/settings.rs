@@ -58,6 +58,10 @@ pub struct InitSettings {
     /// Gyro bias used when it is not estimated, rad/s, body FRD. Default: the board's mean
     /// bias (1.619, 3.440, −0.004) °/s.
     pub gyro_bias: Vec3,
+    /// Standard deviation of `gyro_bias` when the window was not still and the filter starts
+    /// from it, rad/s. Default 2 °/s: several times the board's measured bias change between
+    /// sessions (0.3 °/s on x), room for temperature and for another sensor.
+    pub moving_bias_sigma: f32,
 }
 
 impl Default for InitSettings {
@@ -67,6 +71,7 @@ impl Default for InitSettings {
             initial_yaw: 0.0,
             estimate_gyro_bias: true,
             gyro_bias: Vec3::new(deg(1.619), deg(3.440), deg(-0.0042)),
+            moving_bias_sigma: deg(2.0),
         }
     }
 }
@@ -76,14 +81,18 @@ impl Default for InitSettings {
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct GateSettings {
     /// Magnitude gate: skip the update when `| |a|/g − 1 |` exceeds this, dimensionless.
-    /// Default 0.05 (the source's 1 ± 0.05 g).
+    /// Default 1 (off in practice: only beyond 2 g). 0.05 is the source's 1 ± 0.05 g gate; on
+    /// real motion it rejects most samples, and the EKF's low-pass in motion replaces it
+    /// (`docs/filter.md`).
     pub norm_tolerance: f32,
     /// Knock detection by jump: skip when the accelerometer moved by more than this between
-    /// two consecutive samples, g. Default 0.05 g.
+    /// two consecutive samples, g (the EKF adds 3 standard deviations of the current motion
+    /// level). Default 0.05 g.
     pub jump_g: f32,
     /// Knock detection by innovation (filters with an innovation covariance): skip when the
-    /// normalised innovation squared exceeds this (χ², 2 degrees of freedom). Default 16
-    /// (p ≈ 3·10⁻⁴ for a consistent filter).
+    /// normalised innovation squared exceeds this (χ², 2 degrees of freedom). Default 10⁶
+    /// (off): on real motion the test rejected exactly the samples that would correct a tilt
+    /// error grown in motion. 16 (p ≈ 3·10⁻⁴ for a consistent filter) was the old default.
     pub innovation_chi2: f32,
     /// After any rejection, keep skipping for this long, s (knocks ring). Default 0.1 s.
     pub holdoff_s: f32,
@@ -94,12 +103,24 @@ pub struct GateSettings {
     pub long_reject_s: f32,
 }
 
+impl GateSettings {
+    /// The source's gate: 1 ± 0.05 g, 0.05 g jump, χ² 16 innovation test.
+    pub const SOURCE: GateSettings = GateSettings {
+        norm_tolerance: 0.05,
+        jump_g: 0.05,
+        innovation_chi2: 16.0,
+        holdoff_s: 0.1,
+        reacquire_s: 2.0,
+        long_reject_s: 10.0,
+    };
+}
+
 impl Default for GateSettings {
     fn default() -> Self {
         GateSettings {
-            norm_tolerance: 0.05,
+            norm_tolerance: 1.0,
             jump_g: 0.05,
-            innovation_chi2: 16.0,
+            innovation_chi2: 1e6,
             holdoff_s: 0.1,
             reacquire_s: 2.0,
             long_reject_s: 10.0,
@@ -238,6 +259,18 @@ pub struct EkfSettings {
     pub initial_yaw_sigma: f32,
     /// Gyro-bias standard deviation after initialisation, rad/s. Default 0.2 °/s.
     pub initial_bias_sigma: f32,
+    /// Longest time constant of the accelerometer's low-pass in the estimate's NED frame, s:
+    /// reached in strong motion, where motion accelerations average out and gravity stays
+    /// (VQF's idea, Laidig and Seel 2023); still, samples are used as they are. Default 1 s
+    /// (RepoIMU and the simulated scenarios, `docs/accuracy.md`). 0: raw samples always.
+    pub accel_time_constant: f32,
+    /// Motion level at which the motion weight is ½, g² (mean squared deviation of the
+    /// specific force from its low-pass): the low-pass runs at half its longest time constant
+    /// and the bias learns from the accelerometer at half the Kalman gain. Default 1e−3 g²
+    /// ((0.032 g)², 400× the accelerometer's noise variance).
+    pub motion_scale: f32,
+    /// Time constant of the motion level's average, s. Default 1 s.
+    pub motion_time_constant: f32,
 }
 
 impl Default for EkfSettings {
@@ -250,6 +283,9 @@ impl Default for EkfSettings {
             initial_tilt_sigma: deg(2.0),
             initial_yaw_sigma: deg(5.0),
             initial_bias_sigma: deg(0.2),
+            accel_time_constant: 1.0,
+            motion_scale: 1e-3,
+            motion_time_constant: 1.0,
         }
     }
 }

@@ -324,7 +324,7 @@ impl<T: Real, const M: usize> Core<T, M> {
             set,
             x: Vector::<T>::zeros(),
             p: Matrix::<T>::identity(),
-            init: Some(Initializer::new(settings.init)),
+            init: Some(Initializer::new(&settings)),
             gate: AccelGate::new(settings.gate),
             last_flags: Flags::INITIALISING,
         };
@@ -506,7 +506,7 @@ impl<T: Real, const M: usize> Core<T, M> {
 
     /// Accelerometer update with the gate.
     fn accel_update(&mut self, dt: f32, a_g: Vec3, norm_g: f32) -> Flags {
-        let bypass = match self.gate.pre_check(dt, a_g, norm_g) {
+        let bypass = match self.gate.pre_check(dt, a_g, norm_g, 0.0) {
             PreCheck::Reject(f) => return f,
             PreCheck::Pass { bypass_innovation } => bypass_innovation,
         };

@@ -10,7 +10,11 @@
 //!   drifts past 180° keeps counting);
 //! - **yaw drift**, °/h: slope of the least-squares line through `e(t)` over the rows after the
 //!   initialisation window;
-//! - **final yaw error**: `e` at the last row.
+//! - **final yaw error**: `e` at the last row;
+//! - **tilt RMSE**: RMSE of the inclination error of [`crate::real::errors`] (the angle of
+//!   `q_est ⊗ q_true*` about horizontal axes, whatever the heading) over the rows with
+//!   `t ≥ t₀ + `[`tilt_start_s`] (30 s for `start-moving`, which has no still start; the end of
+//!   the still start or the initialisation window, whichever is later, otherwise).
 //!
 //! The source's single number for the pitch manoeuvres (scenarios 1, 3, 4, 6) is taken as the
 //! pitch RMSE and for the yaw sinusoid (5) as the yaw RMSE; scenario 2 gives all three axes.
@@ -18,8 +22,9 @@
 use ekf_core::conditioning::Conditioner;
 
 use crate::config::ReplayConfig;
+use crate::real::errors;
 use crate::replay::{replay_rows, truth_euler_deg, wrap_deg, FilterKind};
-use crate::sim::Scenario;
+use crate::sim::{Scenario, SimOptions, STILL_S};
 use crate::trace::TraceRow;
 
 /// Sample rate of every evaluation, Hz (the source's).
@@ -38,6 +43,21 @@ pub const TABLE16_SCENARIOS: [Scenario; 6] = [
 /// The hour-long scenarios.
 pub const HOUR_SCENARIOS: [Scenario; 3] =
     [Scenario::StillHour, Scenario::RampHour, Scenario::BiasOff];
+
+/// The robustness scenarios: motions outside the source's set (all attitudes, a side-mounted
+/// board, no still start, a pendulum rig), scored by their tilt RMSE ([`ROBUST_GOALS`]).
+pub const ROBUST_SCENARIOS: [Scenario; 4] =
+    [Scenario::Tumble, Scenario::SideMount, Scenario::StartMoving, Scenario::Pendulum];
+
+/// Seconds after the first row from which the tilt RMSE of `scenario` is taken: 30 s for
+/// `start-moving` (no still start: the filter initialises while moving), else the end of the
+/// still start or of the initialisation window of `cfg`, whichever is later.
+pub fn tilt_start_s(scenario: Scenario, cfg: &ReplayConfig) -> f64 {
+    match scenario {
+        Scenario::StartMoving => 30.0,
+        _ => STILL_S.max(cfg.settings.init.window_s as f64),
+    }
+}
 
 /// The source's scenario number (1–6), if any.
 pub fn scenario_number(s: Scenario) -> Option<usize> {
@@ -107,6 +127,8 @@ pub enum Metric {
     DriftDph,
     /// |final yaw error|, degrees.
     FinalYaw,
+    /// Tilt (inclination) RMSE once converged, degrees ([`RunResult::tilt_rmse_deg`]).
+    TiltRmse,
 }
 
 impl Metric {
@@ -116,6 +138,7 @@ impl Metric {
             Metric::Rmse(a) => r.rmse_deg[a],
             Metric::DriftDph => r.yaw_drift_dph.abs(),
             Metric::FinalYaw => r.final_yaw_err_deg.abs(),
+            Metric::TiltRmse => r.tilt_rmse_deg,
         }
     }
 
@@ -125,6 +148,7 @@ impl Metric {
             Metric::Rmse(a) => format!("{} RMSE (°)", AXIS_NAMES[a]),
             Metric::DriftDph => "yaw drift, absolute (°/h)".into(),
             Metric::FinalYaw => "final yaw error, absolute (°)".into(),
+            Metric::TiltRmse => "tilt RMSE once converged (°)".into(),
         }
     }
 }
@@ -176,13 +200,54 @@ pub const GOALS: [Goal; 13] = [
     },
 ];
 
-/// The replay settings of a scenario: the defaults, except that `bias-off` is replayed
-/// without estimating the gyro bias in the initialisation window (`replay --no-init-bias`),
-/// so the filter starts with its configured, now 0.05 °/s wrong, z bias.
+/// The robustness goals for the EKF with default settings: tilt RMSE ≤ 0.5° once converged
+/// ([`tilt_start_s`]) on every [`ROBUST_SCENARIOS`] scenario.
+pub const ROBUST_GOALS: [Goal; 4] = [
+    Goal { label: "tumble tilt", scenario: Scenario::Tumble, metric: Metric::TiltRmse, max: 0.5 },
+    Goal {
+        label: "side-mount tilt",
+        scenario: Scenario::SideMount,
+        metric: Metric::TiltRmse,
+        max: 0.5,
+    },
+    Goal {
+        label: "start-moving tilt",
+        scenario: Scenario::StartMoving,
+        metric: Metric::TiltRmse,
+        max: 0.5,
+    },
+    Goal {
+        label: "pendulum tilt",
+        scenario: Scenario::Pendulum,
+        metric: Metric::TiltRmse,
+        max: 0.5,
+    },
+];
+
+/// The replay settings of a scenario: the defaults, except that
+/// - `bias-off` is replayed without estimating the gyro bias in the initialisation window
+///   (`replay --no-init-bias`), so the filter starts with its configured, now 0.05 °/s wrong,
+///   z bias;
+/// - `side-mount` gets the Seahog's lever arm in the side-mounted sensor's axes (the mounting
+///   is known; the filter still sees the board's own attitude, roll ≈ 90°);
+/// - `pendulum` has no lever arm (a foreign test rig: nothing configured for it, as for the
+///   recorded pendulum data of [`crate::real::RepoImu::config`]);
+/// - `tumble` has the lever arm's tangential term on (up to 0.04 g of ω̇ × r at 90 °/s).
 pub fn replay_config(scenario: Scenario) -> ReplayConfig {
     let mut cfg = ReplayConfig::default();
-    if scenario == Scenario::BiasOff {
-        cfg.settings.init.estimate_gyro_bias = false;
+    match scenario {
+        Scenario::BiasOff => cfg.settings.init.estimate_gyro_bias = false,
+        Scenario::SideMount => {
+            let r = scenario.sensors().lever_arm;
+            cfg.conditioning.lever_arm.r =
+                ekf_core::Vec3::new(r[0] as f32, r[1] as f32, r[2] as f32);
+        }
+        Scenario::Pendulum => cfg.conditioning.lever_arm = ekf_core::lever_arm::LeverArm::NONE,
+        // Tumbling at up to 90 °/s, the Seahog's 0.36 m lever arm sees up to 0.04 g of
+        // tangential acceleration ω̇ × r: a vehicle that moves like this is configured with the
+        // tangential term on (`lever_arm.tangential`).
+        Scenario::Tumble => cfg.conditioning.lever_arm.tangential = true,
+        _ => {}
     }
     cfg
 }
@@ -190,6 +255,12 @@ pub fn replay_config(scenario: Scenario) -> ReplayConfig {
 /// Simulate `scenario` at [`RATE_HZ`] for `duration_s` (its default when `None`) with `seed`.
 pub fn simulate(scenario: Scenario, duration_s: Option<f64>, seed: u64) -> Vec<TraceRow> {
     let (sim, _) = scenario.simulator(RATE_HZ, duration_s, seed, false);
+    sim.map(|s| s.row).collect()
+}
+
+/// Simulate `scenario` with `opts` (e.g. `realistic: true` for the realistic sensor errors).
+pub fn simulate_with(scenario: Scenario, opts: &SimOptions) -> Vec<TraceRow> {
+    let (sim, _) = scenario.simulator_with(opts);
     sim.map(|s| s.row).collect()
 }
 
@@ -204,6 +275,9 @@ pub struct RunResult {
     pub final_yaw_err_deg: f64,
     /// Largest |yaw error| after the window, degrees.
     pub max_yaw_err_deg: f64,
+    /// Tilt (inclination) RMSE over the rows from the tilt start on, degrees (NaN with no
+    /// such row).
+    pub tilt_rmse_deg: f64,
     /// Rows replayed.
     pub rows: u64,
 }
@@ -236,9 +310,58 @@ impl LineFit {
     }
 }
 
+/// Tilt (inclination) error RMSE over the rows at or after a start time.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TiltRmse {
+    /// First time scored, s.
+    pub from_t: f64,
+    sum_sq: f64,
+    n: u64,
+}
+
+impl TiltRmse {
+    /// Score rows with `t ≥ from_t`.
+    pub fn new(from_t: f64) -> Self {
+        TiltRmse { from_t, sum_sq: 0.0, n: 0 }
+    }
+
+    /// Add a row: estimate and truth (body → NED, any sign and norm).
+    pub fn add(&mut self, t: f64, est: [f64; 4], truth: [f64; 4]) {
+        if t >= self.from_t {
+            let (incl, _) = errors(est, truth);
+            self.sum_sq += incl * incl;
+            self.n += 1;
+        }
+    }
+
+    /// Rows scored.
+    pub fn count(&self) -> u64 {
+        self.n
+    }
+
+    /// RMSE, degrees; NaN with no row.
+    pub fn rmse_deg(&self) -> f64 {
+        if self.n == 0 {
+            return f64::NAN;
+        }
+        (self.sum_sq / self.n as f64).sqrt().to_degrees()
+    }
+}
+
 /// Replay `rows` (with truth) through a new `filter` configured by `cfg`, using the CLI's
-/// replay loop, and measure it.
+/// replay loop, and measure it; the tilt RMSE from the end of the initialisation window (use
+/// [`evaluate_from`] with [`tilt_start_s`] for a scenario's own start).
 pub fn evaluate(rows: &[TraceRow], filter: FilterKind, cfg: &ReplayConfig) -> RunResult {
+    evaluate_from(rows, filter, cfg, cfg.settings.init.window_s as f64)
+}
+
+/// [`evaluate`] with the tilt RMSE over the rows with `t ≥ t₀ + tilt_from_s`.
+pub fn evaluate_from(
+    rows: &[TraceRow],
+    filter: FilterKind,
+    cfg: &ReplayConfig,
+    tilt_from_s: f64,
+) -> RunResult {
     let mut f = cfg.make_filter(filter);
     let mut cond = Conditioner::new(cfg.conditioning);
     let window = cfg.settings.init.window_s as f64;
@@ -246,9 +369,11 @@ pub fn evaluate(rows: &[TraceRow], filter: FilterKind, cfg: &ReplayConfig) -> Ru
     let mut fit = LineFit::default();
     let mut unwrapped: Option<f64> = None;
     let mut max_err = 0.0f64;
+    let mut tilt = TiltRmse::new(t0 + tilt_from_s);
     let stats =
         replay_rows(rows.iter().map(|r| Ok(*r)), f.as_mut(), &mut cond, window, |row, est| {
             if let Some(tq) = row.truth {
+                tilt.add(row.t, est.q.map(f64::from), tq.map(f64::from));
                 if row.t >= t0 + window {
                     let e = wrap_deg(est.euler_deg[2] as f64 - truth_euler_deg(tq)[2]);
                     let u = match unwrapped {
@@ -268,15 +393,22 @@ pub fn evaluate(rows: &[TraceRow], filter: FilterKind, cfg: &ReplayConfig) -> Ru
         yaw_drift_dph: fit.slope() * 3600.0,
         final_yaw_err_deg: unwrapped.unwrap_or(f64::NAN),
         max_yaw_err_deg: max_err,
+        tilt_rmse_deg: tilt.rmse_deg(),
         rows: stats.rows,
     }
 }
 
 /// Simulate `scenario` with `seed` (default duration) and evaluate `filter` on it with the
-/// scenario's [`replay_config`].
+/// scenario's [`replay_config`] and [`tilt_start_s`].
 pub fn run(scenario: Scenario, seed: u64, filter: FilterKind) -> RunResult {
-    let rows = simulate(scenario, None, seed);
-    evaluate(&rows, filter, &replay_config(scenario))
+    run_with(scenario, &SimOptions { rate_hz: RATE_HZ, seed, ..SimOptions::default() }, filter)
+}
+
+/// [`run`] with the simulation options `opts` (e.g. `realistic: true`).
+pub fn run_with(scenario: Scenario, opts: &SimOptions, filter: FilterKind) -> RunResult {
+    let rows = simulate_with(scenario, opts);
+    let cfg = replay_config(scenario);
+    evaluate_from(&rows, filter, &cfg, tilt_start_s(scenario, &cfg))
 }
 
 /// CPU time of the calling thread, s (`clock_gettime(CLOCK_THREAD_CPUTIME_ID)`, nanoseconds),
@@ -361,6 +493,55 @@ mod tests {
         assert_eq!(source_rmse(FilterKind::Ekf, Scenario::PitchStep, 1), Some(0.2108));
         assert_eq!(source_rmse(FilterKind::Gyro, Scenario::PitchSine, 1), None);
         assert_eq!(source_rmse(FilterKind::Ekf, Scenario::StillHour, 2), None);
+    }
+
+    #[test]
+    fn tilt_rmse_is_the_inclination_error_after_its_start() {
+        use crate::sim::{axis_angle, qmul};
+        let truth = axis_angle([0.2, 0.9, -0.3], 1.3);
+        let mut t = TiltRmse::new(10.0);
+        // Before the start: not scored, however wrong.
+        t.add(9.99, axis_angle([1.0, 0.0, 0.0], 1.0), truth);
+        assert_eq!(t.count(), 0);
+        assert!(t.rmse_deg().is_nan());
+        // A heading error alone is no tilt error; 3° and 4° about horizontal NED axes give
+        // RMSE √((0 + 9 + 16) / 3) = 2.887°.
+        t.add(10.0, qmul(axis_angle([0.0, 0.0, 1.0], 0.5), truth), truth);
+        t.add(11.0, qmul(axis_angle([1.0, 0.0, 0.0], 3f64.to_radians()), truth), truth);
+        t.add(12.0, qmul(axis_angle([0.0, 1.0, 0.0], -4f64.to_radians()), truth), truth);
+        assert_eq!(t.count(), 3);
+        assert!((t.rmse_deg() - (25.0f64 / 3.0).sqrt()).abs() < 1e-9, "{}", t.rmse_deg());
+        let r = RunResult {
+            rmse_deg: [0.0; 3],
+            yaw_drift_dph: 0.0,
+            final_yaw_err_deg: 0.0,
+            max_yaw_err_deg: 0.0,
+            tilt_rmse_deg: 0.42,
+            rows: 1,
+        };
+        assert_eq!(Metric::TiltRmse.of(&r), 0.42);
+    }
+
+    #[test]
+    fn robust_scenarios_goals_and_replay_settings() {
+        let cfg = ReplayConfig::default();
+        assert_eq!(tilt_start_s(Scenario::StartMoving, &cfg), 30.0);
+        assert_eq!(
+            tilt_start_s(Scenario::Tumble, &cfg),
+            STILL_S.max(cfg.settings.init.window_s as f64)
+        );
+        for s in ROBUST_SCENARIOS {
+            let g: Vec<_> = ROBUST_GOALS.iter().filter(|g| g.scenario == s).collect();
+            assert_eq!(g.len(), 1);
+            assert_eq!((g[0].metric, g[0].max), (Metric::TiltRmse, 0.5));
+        }
+        // Side mount: the Seahog's arm in sensor axes; pendulum: none.
+        let r = replay_config(Scenario::SideMount).conditioning.lever_arm.r;
+        assert!((r.x - 0.297_25).abs() < 1e-6 && (r.y - 0.0803).abs() < 1e-6);
+        assert!((r.z - 0.196).abs() < 1e-6);
+        let r = replay_config(Scenario::Pendulum).conditioning.lever_arm.r;
+        assert_eq!(r, ekf_core::Vec3::ZERO);
+        assert_eq!(replay_config(Scenario::Tumble), ReplayConfig::default());
     }
 
     #[test]

@@ -119,7 +119,7 @@ section!(
 section!(
     /// `[init]`.
     InitToml => settings::InitSettings {
-        window_s: f32, initial_yaw: f32, estimate_gyro_bias: bool, gyro_bias: [f32; 3],
+        window_s: f32, initial_yaw: f32, estimate_gyro_bias: bool, gyro_bias: [f32; 3], moving_bias_sigma: f32,
     }
 );
 section!(
@@ -154,7 +154,7 @@ section!(
     /// `[ekf]`.
     EkfToml => settings::EkfSettings {
         yaw_split: bool, accel_var_scale: f32, bias_random_walk: f32, yaw_drift_rate: f32,
-        initial_tilt_sigma: f32, initial_yaw_sigma: f32, initial_bias_sigma: f32,
+        initial_tilt_sigma: f32, initial_yaw_sigma: f32, initial_bias_sigma: f32, accel_time_constant: f32, motion_scale: f32, motion_time_constant: f32,
     }
 );
 section!(

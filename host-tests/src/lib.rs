@@ -15,6 +15,7 @@ pub mod accuracy;
 pub mod config;
 pub mod output;
 pub mod plot;
+pub mod real;
 pub mod replay;
 pub mod rng;
 pub mod sim;
