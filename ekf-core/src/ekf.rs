@@ -29,7 +29,7 @@ const MAX_ATT_VAR: f32 = 10.0;
 const MAX_BIAS_VAR: f32 = 1.0;
 
 /// Tilt standard deviation after a start in motion, rad (30°).
-pub const MOVING_TILT_SIGMA: f32 = 0.5236;
+pub const MOVING_TILT_SIGMA: f32 = core::f32::consts::FRAC_PI_6;
 
 /// A knock is an accelerometer jump larger than `gate.jump_g` plus this many standard
 /// deviations of the current motion level.

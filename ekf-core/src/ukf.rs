@@ -253,8 +253,10 @@ mod tests {
     fn garbage_input_keeps_the_state_sane() {
         // With the source's gate (1 ± 0.05 g, χ² 16): the unscented filters take the raw
         // accelerometer with the datasheet noise and follow whatever passes the gate.
-        let mut s = crate::Settings::default();
-        s.gate = crate::settings::GateSettings::SOURCE;
+        let s = crate::Settings {
+            gate: crate::settings::GateSettings::SOURCE,
+            ..crate::Settings::default()
+        };
         let mut f = Ukf::new(s, UkfParams::default());
         testkit::garbage_run(&mut f, |f| f.covariance());
     }

@@ -109,8 +109,7 @@ fn gate_skips_extra_acceleration_and_resumes_after() {
         (Vec3::ZERO, if (5.0..8.0).contains(&t) { extra } else { Vec3::ZERO })
     });
     // The source's gate (1 ± 0.05 g), a setting (off by default).
-    let mut gated = Settings::default();
-    gated.gate = ekf_core::settings::GateSettings::SOURCE;
+    let gated = Settings { gate: ekf_core::settings::GateSettings::SOURCE, ..Settings::default() };
     let mut f = started(gated, truth, Sensors::board().gyro_bias);
     let mut max_err: f32 = 0.0;
     let (mut used_during, mut used_after) = (0, 0);

@@ -7,11 +7,16 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 use ekf_core::conditioning::Conditioner;
-use host_tests::config::{parse_config, ReplayConfig};
+use ekf_core::lever_arm::LeverArm;
+use ekf_core::Vec3;
+use host_tests::config::{ConfigToml, ReplayConfig};
 use host_tests::output::{produce_atomically, write_atomically};
-use host_tests::replay::{replay, replay_serial, FilterKind, ReplayError};
-use host_tests::sim::Scenario;
-use host_tests::trace::{read_estimate_file, read_trace_file, TraceReader, TraceWriter};
+use host_tests::real::AttitudeScore;
+use host_tests::replay::{replay_serial_with, replay_with, FilterKind, ReplayError};
+use host_tests::sim::{Scenario, SimOptions};
+use host_tests::trace::{
+    read_estimate_file, read_trace_file, EstimateRow, TraceReader, TraceRow, TraceWriter,
+};
 
 /// `println!` that ignores a closed stdout (e.g. piped into `head`).
 macro_rules! say {
@@ -33,7 +38,9 @@ enum Cmd {
     /// Simulate a scenario and write a trace with truth columns.
     Simulate {
         /// pitch-sine (1), coupled (2), pitch-step (3), pitch-ramp (4), yaw-sine (5), surge (6),
-        /// gyro-noise, accel-noise, still-hour, ramp-hour, bias-off.
+        /// gyro-noise, accel-noise, still-hour, ramp-hour, bias-off; robustness: tumble (all
+        /// attitudes), side-mount (board at 90° roll), start-moving (no still start), pendulum
+        /// (a pendulum rig, as the RepoIMU recordings).
         #[arg(value_parser = parse_scenario)]
         scenario: Scenario,
         /// Output trace CSV.
@@ -51,8 +58,18 @@ enum Cmd {
         /// Also simulate the magnetometer (mx, my, mz columns).
         #[arg(long)]
         mag: bool,
+        /// Add the realistic sensor errors the filter does not model (gyro bias random walk
+        /// and flicker, scale factors, misalignment, residual accelerometer bias, quantisation,
+        /// sample-time jitter, repeated samples, vibration: the iNEMO values of `src/sim.rs`).
+        /// Without it the trace is the plain model's, unchanged.
+        #[arg(long)]
+        realistic: bool,
     },
     /// Run a trace through the estimator and write one estimate row per input row.
+    ///
+    /// With truth in the trace it prints the roll/pitch/yaw RMSE (rows after the
+    /// initialisation window) and the inclination and heading RMSE of the real-data benchmarks
+    /// (RepoIMU, VQF: heading with its circular mean removed; every row with truth).
     Replay {
         /// Input trace CSV.
         trace: PathBuf,
@@ -69,6 +86,11 @@ enum Cmd {
         /// `init.gyro_bias`.
         #[arg(long)]
         no_init_bias: bool,
+        /// Another IMU's recording (e.g. RepoIMU): drop the Seahog specifics, i.e. no lever
+        /// arm (`LeverArm::NONE`) and a configured gyro bias of zero (`init.gyro_bias`, the
+        /// iNEMO board's); everything else default. A `--config` file applies on top.
+        #[arg(long)]
+        foreign: bool,
     },
     /// Plot truth vs estimate and the error per axis to a PNG.
     Plot {
@@ -114,8 +136,10 @@ fn simulate(
     duration: Option<f64>,
     seed: u64,
     mag: bool,
+    realistic: bool,
 ) -> Result<(), String> {
-    let (sim, cfg) = scenario.simulator(rate, duration, seed, mag);
+    let opts = SimOptions { rate_hz: rate, duration_s: duration, seed, mag, realistic };
+    let (sim, cfg) = scenario.simulator_with(&opts);
     let rows = sim.len();
     write_atomically(out, |w| -> std::io::Result<()> {
         let mut tw = TraceWriter::new(w, sim.columns())?;
@@ -130,15 +154,49 @@ fn simulate(
     })
     .map_err(|e| format!("{}: {e}", out.display()))?;
     say!(
-        "simulate: {} ({} rows, {} Hz, {} s, seed {}) -> {}",
+        "simulate: {} ({} rows, {} Hz, {} s, seed {}{}) -> {}",
         scenario.name(),
         rows,
         cfg.rate_hz,
         cfg.duration_s,
         seed,
+        if realistic { ", realistic sensor errors" } else { "" },
         out.display()
     );
     Ok(())
+}
+
+/// `[x, y, z]` with 4 decimals.
+fn vec3(v: Vec3, scale: f32) -> String {
+    format!("[{:.4}, {:.4}, {:.4}]", v.x * scale, v.y * scale, v.z * scale)
+}
+
+/// The `--foreign` configuration: the defaults without the Seahog specifics (lever arm, the
+/// iNEMO's gyro bias), and the line that says what changed.
+fn foreign_config(then_config: bool) -> (ReplayConfig, String) {
+    let mut cfg = ReplayConfig::default();
+    let (arm, bias) = (cfg.conditioning.lever_arm.r, cfg.settings.init.gyro_bias);
+    cfg.conditioning.lever_arm = LeverArm::NONE;
+    cfg.settings.init.gyro_bias = Vec3::ZERO;
+    let line = format!(
+        "foreign: lever_arm.r {} m -> {} (LeverArm::NONE), init.gyro_bias {} deg/s -> {}; \
+         the rest default{}",
+        vec3(arm, 1.0),
+        vec3(cfg.conditioning.lever_arm.r, 1.0),
+        vec3(bias, 1f32.to_degrees()),
+        vec3(cfg.settings.init.gyro_bias, 1f32.to_degrees()),
+        if then_config { ", then --config on top" } else { "" },
+    );
+    (cfg, line)
+}
+
+/// Apply the TOML `text` on top of `cfg` (as `parse_config` does on top of the defaults).
+fn apply_config(text: &str, cfg: &mut ReplayConfig) -> Result<(), String> {
+    let file: ConfigToml = toml::from_str(text).map_err(|e| {
+        // toml's message spans several lines (with a caret under the error): keep one.
+        e.to_string().lines().filter(|l| !l.trim().is_empty()).collect::<Vec<_>>().join(" ")
+    })?;
+    file.apply(cfg)
 }
 
 fn run_replay(
@@ -147,14 +205,17 @@ fn run_replay(
     filter: FilterKind,
     config: Option<&Path>,
     no_init_bias: bool,
+    foreign: bool,
 ) -> Result<(), String> {
-    let mut cfg = match config {
-        Some(p) => {
-            let text = std::fs::read_to_string(p).map_err(|e| format!("{}: {e}", p.display()))?;
-            parse_config(&text).map_err(|e| format!("{}: {e}", p.display()))?
-        }
-        None => ReplayConfig::default(),
+    let (mut cfg, foreign_line) = if foreign {
+        foreign_config(config.is_some())
+    } else {
+        (ReplayConfig::default(), String::new())
     };
+    if let Some(p) = config {
+        let text = std::fs::read_to_string(p).map_err(|e| format!("{}: {e}", p.display()))?;
+        apply_config(&text, &mut cfg).map_err(|e| format!("{}: {e}", p.display()))?;
+    }
     if no_init_bias {
         cfg.settings.init.estimate_gyro_bias = false;
     }
@@ -169,11 +230,18 @@ fn run_replay(
     // the replay-speed table of docs/accuracy.md); with one core, the threads would only take
     // turns on it, so the single-thread replay does the same work without their hand-overs.
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    // Inclination and heading errors (`host_tests::real`) of every row with truth.
+    let mut score = AttitudeScore::default();
+    let observe = |row: &TraceRow, est: &EstimateRow| {
+        if let Some(t) = row.truth {
+            score.add(est.q.map(f64::from), t.map(f64::from));
+        }
+    };
     let stats = write_atomically(out, |w| {
         if cores > 1 {
-            replay(reader, w, f.as_mut(), &mut cond, window)
+            replay_with(reader, w, f.as_mut(), &mut cond, window, observe)
         } else {
-            replay_serial(reader, w, f.as_mut(), &mut cond, window)
+            replay_serial_with(reader, w, f.as_mut(), &mut cond, window, observe)
         }
     })
     .map_err(|e| match e {
@@ -181,6 +249,9 @@ fn run_replay(
         ReplayError::Io(e) => format!("{}: {e}", out.display()),
     })?;
     let rate = stats.rows as f64 / stats.elapsed_s.max(1e-9);
+    if foreign {
+        say!("{foreign_line}");
+    }
     say!(
         "replay: {} rows through {} in {:.3} s ({:.0} rows/s) -> {}",
         stats.rows,
@@ -202,6 +273,15 @@ fn run_replay(
                 window
             ),
             None => say!("rmse_deg: no truth rows after the {window} s window"),
+        }
+        if let Some(s) = score.rmse() {
+            say!(
+                "rmse_deg inclination {:.4} heading {:.4} (heading less its circular mean; over \
+                 all {} rows with truth, the window included)",
+                s.inclination_deg,
+                s.heading_deg,
+                s.rows
+            );
         }
     }
     Ok(())
@@ -258,11 +338,11 @@ fn main() -> ExitCode {
         }
     };
     let result = match cli.cmd {
-        Cmd::Simulate { scenario, out, rate, duration, seed, mag } => {
-            simulate(scenario, &out, rate, duration, seed, mag)
+        Cmd::Simulate { scenario, out, rate, duration, seed, mag, realistic } => {
+            simulate(scenario, &out, rate, duration, seed, mag, realistic)
         }
-        Cmd::Replay { trace, out, filter, config, no_init_bias } => {
-            run_replay(&trace, &out, filter, config.as_deref(), no_init_bias)
+        Cmd::Replay { trace, out, filter, config, no_init_bias, foreign } => {
+            run_replay(&trace, &out, filter, config.as_deref(), no_init_bias, foreign)
         }
         Cmd::Plot { trace, est, out } => run_plot(&trace, &est, &out),
     };

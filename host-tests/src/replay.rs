@@ -179,11 +179,24 @@ const CHUNK: usize = 2048;
 /// Three stages on three threads, a few chunks of rows apart: parsing, the filter (this
 /// thread), and formatting plus writing the estimates.
 pub fn replay<R: BufRead + Send, W: Write + Send>(
+    reader: TraceReader<R>,
+    out: W,
+    filter: &mut dyn AttitudeFilter,
+    conditioner: &mut Conditioner,
+    window_s: f64,
+) -> Result<ReplayStats, ReplayError> {
+    replay_with(reader, out, filter, conditioner, window_s, |_, _| {})
+}
+
+/// [`replay`] that also hands every input row with its estimate to `observe`, on the calling
+/// thread (the filter's), in row order (the CLI scores inclination and heading with it).
+pub fn replay_with<R: BufRead + Send, W: Write + Send>(
     mut reader: TraceReader<R>,
     out: W,
     filter: &mut dyn AttitudeFilter,
     conditioner: &mut Conditioner,
     window_s: f64,
+    mut observe: impl FnMut(&TraceRow, &EstimateRow),
 ) -> Result<ReplayStats, ReplayError> {
     let start = Instant::now();
     std::thread::scope(|scope| {
@@ -220,7 +233,8 @@ pub fn replay<R: BufRead + Send, W: Write + Send>(
         });
         let mut rows = Chunks { rx, current: Vec::new().into_iter() };
         let mut buf: Vec<EstimateRow> = Vec::with_capacity(CHUNK);
-        let result = replay_rows(&mut rows, filter, conditioner, window_s, |_, e| {
+        let result = replay_rows(&mut rows, filter, conditioner, window_s, |r, e| {
+            observe(r, e);
             buf.push(*e);
             if buf.len() == CHUNK {
                 let full = std::mem::replace(&mut buf, Vec::with_capacity(CHUNK));
@@ -251,16 +265,32 @@ pub fn replay<R: BufRead + Send, W: Write + Send>(
 /// whole rows, the start of the output either way); faster than it on one core, or when the
 /// other cores are busy.
 pub fn replay_serial<R: BufRead, W: Write>(
-    mut reader: TraceReader<R>,
+    reader: TraceReader<R>,
     out: W,
     filter: &mut dyn AttitudeFilter,
     conditioner: &mut Conditioner,
     window_s: f64,
 ) -> Result<ReplayStats, ReplayError> {
+    replay_serial_with(reader, out, filter, conditioner, window_s, |_, _| {})
+}
+
+/// [`replay_serial`] that also hands every input row with its estimate to `observe`, in row
+/// order (as [`replay_with`]).
+pub fn replay_serial_with<R: BufRead, W: Write>(
+    mut reader: TraceReader<R>,
+    out: W,
+    filter: &mut dyn AttitudeFilter,
+    conditioner: &mut Conditioner,
+    window_s: f64,
+    mut observe: impl FnMut(&TraceRow, &EstimateRow),
+) -> Result<ReplayStats, ReplayError> {
     let start = Instant::now();
     let mut w = EstimateWriter::new(out)?;
     let rows = std::iter::from_fn(|| reader.next_row().transpose());
-    let mut stats = replay_rows(rows, filter, conditioner, window_s, |_, e| w.row(e))?;
+    let mut stats = replay_rows(rows, filter, conditioner, window_s, |r, e| {
+        observe(r, e);
+        w.row(e)
+    })?;
     w.finish()?;
     stats.elapsed_s = start.elapsed().as_secs_f64();
     Ok(stats)

@@ -250,3 +250,134 @@ fn simulate_is_deterministic_per_seed() {
     let rows = String::from_utf8(a).unwrap().lines().filter(|l| !l.starts_with('#')).count() - 1;
     assert_eq!(rows, 1200);
 }
+
+/// Parse "rmse_deg inclination I heading H (... over all N rows with truth ...)" from replay's
+/// stdout: (I, H, N).
+fn incl_heading(out: &str) -> (f64, f64, usize) {
+    let line =
+        out.lines().find(|l| l.starts_with("rmse_deg inclination ")).expect("inclination line");
+    let w: Vec<&str> = line.split_whitespace().collect();
+    assert_eq!(w[3], "heading", "{line}");
+    let n = line.split("over all ").nth(1).and_then(|r| r.split(' ').next()).expect("row count");
+    (w[2].parse().unwrap(), w[4].parse().unwrap(), n.parse().unwrap())
+}
+
+/// The printed value (4 decimals) is `expected` rounded.
+fn assert_printed(printed: f64, expected: f64, what: &str) {
+    assert!(
+        (printed - expected).abs() <= 0.5e-4 + 1e-9,
+        "{what}: printed {printed}, score {expected}"
+    );
+}
+
+#[test]
+fn replay_scores_a_recording_and_foreign_drops_the_seahog_specifics() {
+    use ekf_core::lever_arm::LeverArm;
+    use ekf_core::Vec3;
+    use host_tests::config::ReplayConfig;
+    use host_tests::real::{score, RepoImu};
+    use host_tests::replay::FilterKind;
+
+    let file = RepoImu::dir().join(RepoImu::FILES[0]);
+    assert!(file.ends_with("Pendulum_Test02a_Trial1_Segment_1.csv"));
+    let (_, rows) = host_tests::trace::read_trace_file(&file).expect("RepoIMU recording");
+    let dir = tempfile::tempdir().unwrap();
+    let est = dir.path().join("est.csv");
+    let toml = dir.path().join("arm.toml");
+    std::fs::write(&toml, "[lever_arm]\nr = [0.1, 0.0, 0.0]\n").unwrap();
+
+    let mut foreign = ReplayConfig::default();
+    foreign.conditioning.lever_arm = LeverArm::NONE;
+    foreign.settings.init.gyro_bias = Vec3::ZERO;
+    let mut foreign_arm = foreign;
+    foreign_arm.conditioning.lever_arm.r = Vec3::new(0.1, 0.0, 0.0);
+    let foreign_line = "foreign: lever_arm.r [0.2973, -0.1960, 0.0803] m -> [0.0000, 0.0000, \
+                        0.0000] (LeverArm::NONE), init.gyro_bias [1.6190, 3.4400, -0.0042] \
+                        deg/s -> [0.0000, 0.0000, 0.0000]; the rest default";
+
+    let mut seen = Vec::new();
+    for (extra, cfg, line) in [
+        (vec![], ReplayConfig::default(), None),
+        (vec!["--foreign"], foreign, Some(foreign_line.to_string())),
+        (
+            vec!["--foreign", "--config", p(&toml)],
+            foreign_arm,
+            Some(format!("{foreign_line}, then --config on top")),
+        ),
+    ] {
+        let mut args = vec!["replay", p(&file), "--out", p(&est)];
+        args.extend(&extra);
+        let o = run(&args);
+        assert!(o.status.success(), "{extra:?}: {}", stderr(&o));
+        let out = stdout(&o);
+        match &line {
+            Some(l) => assert_eq!(out.lines().next(), Some(l.as_str()), "{out}"),
+            None => assert!(!out.contains("foreign"), "{out}"),
+        }
+        // The Euler RMSE line is still there, and the new one follows it.
+        let _ = rmse(&out);
+        let (incl, heading, n) = incl_heading(&out);
+        let want = score(&rows, FilterKind::Ekf, &cfg).expect("rows with truth");
+        eprintln!("{extra:?}: inclination {incl} heading {heading}; score {want:?}");
+        assert_eq!(n, rows.len(), "every row has truth");
+        assert_eq!(n, want.rows);
+        assert_printed(incl, want.inclination_deg, "inclination");
+        assert_printed(heading, want.heading_deg, "heading");
+        seen.push((incl, heading));
+    }
+    // Each configuration changes the result (the flags reach the filter).
+    assert_ne!(seen[0], seen[1]);
+    assert_ne!(seen[1], seen[2]);
+}
+
+#[test]
+fn simulate_realistic_differs_and_the_plain_trace_is_unchanged() {
+    use host_tests::sim::Scenario;
+    use host_tests::trace::TraceWriter;
+
+    let dir = tempfile::tempdir().unwrap();
+    for name in ["tumble", "pitch-sine"] {
+        let plain = dir.path().join(format!("{name}-plain.csv"));
+        let real = dir.path().join(format!("{name}-real.csv"));
+        let args = ["simulate", name, "--duration", "30", "--seed", "3"];
+        let o = run(&[&args[..], &["--out", p(&plain)]].concat());
+        assert!(o.status.success(), "{}", stderr(&o));
+        assert!(!stdout(&o).contains("realistic"), "{}", stdout(&o));
+        let o = run(&[&args[..], &["--out", p(&real), "--realistic"]].concat());
+        assert!(o.status.success(), "{}", stderr(&o));
+        assert!(stdout(&o).contains("seed 3, realistic sensor errors)"), "{}", stdout(&o));
+
+        // Without the flag: byte for byte the trace of the plain simulator (no realism).
+        let scenario = Scenario::from_name(name).unwrap();
+        let (sim, cfg) = scenario.simulator(50.0, Some(30.0), 3, false);
+        let mut want = Vec::new();
+        let mut tw = TraceWriter::new(&mut want, sim.columns()).unwrap();
+        for c in scenario.comments(&cfg) {
+            tw.comment(&c).unwrap();
+        }
+        for s in sim {
+            tw.row(&s.row).unwrap();
+        }
+        tw.finish().unwrap();
+        let plain = std::fs::read(&plain).unwrap();
+        assert_eq!(plain, want, "{name}: plain trace changed");
+
+        // With it: different sensor columns, the same rows, times and truth.
+        let real = std::fs::read_to_string(&real).unwrap();
+        assert_ne!(real.as_bytes(), &plain[..]);
+        let data = |text: &str| -> Vec<Vec<String>> {
+            text.lines()
+                .filter(|l| !l.starts_with('#'))
+                .map(|l| l.split(',').map(str::to_string).collect())
+                .collect()
+        };
+        let (a, b) = (data(std::str::from_utf8(&plain).unwrap()), data(&real));
+        assert_eq!(a.len(), b.len());
+        assert_eq!(a[0], b[0], "header");
+        let differ = a.iter().zip(&b).filter(|(x, y)| x[1..7] != y[1..7]).count();
+        assert!(differ > a.len() / 2, "{name}: only {differ} rows differ");
+        for (x, y) in a.iter().zip(&b) {
+            assert_eq!((&x[0], &x[7..]), (&y[0], &y[7..]), "{name}: time or truth changed");
+        }
+    }
+}

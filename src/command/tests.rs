@@ -100,13 +100,13 @@ fn version_status_and_list() {
     assert_eq!(run(&mut d, &mut f, "PINAC,STATUS").0, "PINAR,OK,STATUS,DEFAULTS,,POR,0001,00");
     assert_eq!(
         run(&mut d, &mut f, "PINAC,LIST,0").0,
-        "PINAR,OK,LIST,0,64,noise.gyro_var,f32x3,(deg/s)2"
+        "PINAR,OK,LIST,0,68,noise.gyro_var,f32x3,(deg/s)2"
     );
-    assert_eq!(run(&mut d, &mut f, "PINAC,LIST,62").0, "PINAR,OK,LIST,62,64,output.prdid,bool,");
+    assert_eq!(run(&mut d, &mut f, "PINAC,LIST,66").0, "PINAR,OK,LIST,66,68,output.prdid,bool,");
     for i in 0..SETTINGS.len() {
         assert!(run(&mut d, &mut f, &format!("PINAC,LIST,{i}")).0.starts_with("PINAR,OK,LIST,"));
     }
-    assert_eq!(refused(&mut d, &mut f, &cmd("PINAC,LIST,64")), "PINAR,ERR,LIST,range,0,63");
+    assert_eq!(refused(&mut d, &mut f, &cmd("PINAC,LIST,68")), "PINAR,ERR,LIST,range,0,67");
     // Verbs are case-insensitive.
     assert!(run(&mut d, &mut f, "PINAC,ver").0.starts_with("PINAR,OK,VER,"));
     // A reset cause that cannot be sent is shown as `?`.
@@ -119,13 +119,13 @@ fn get_and_set_every_setting() {
     let mut d = fresh();
     let mut f = SimFlash::new();
     for s in &SETTINGS {
-        let (r, _) = run(&mut d, &mut f, &format!("PINAC,GET,{}", s.name));
-        let prefix = format!("PINAR,OK,GET,{},", s.name);
+        let (r, _) = run(&mut d, &mut f, &format!("PINAC,GET,{}", s.name()));
+        let prefix = format!("PINAR,OK,GET,{},", s.name());
         assert!(r.starts_with(&prefix), "{r}");
         let value = &r[prefix.len()..];
         // Setting the value read changes nothing.
-        let (r2, a) = run(&mut d, &mut f, &format!("PINAC,SET,{},{}", s.name, value));
-        assert_eq!(r2, format!("PINAR,OK,SET,{},{}", s.name, value));
+        let (r2, a) = run(&mut d, &mut f, &format!("PINAC,SET,{},{}", s.name(), value));
+        assert_eq!(r2, format!("PINAR,OK,SET,{},{}", s.name(), value));
         assert!(
             a.is_none()
                 || !matches!(
@@ -133,7 +133,7 @@ fn get_and_set_every_setting() {
                     registry::Kind::Bool | registry::Kind::U16 | registry::Kind::Axes
                 ),
             "{}",
-            s.name
+            s.name()
         );
     }
     let (r, a) = run(&mut d, &mut f, "PINAC,SET,gate.norm_tolerance,0.1");

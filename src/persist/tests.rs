@@ -135,6 +135,41 @@ fn old_and_new_records_stay_readable() {
     assert_eq!(load(&f).source, Source::Defaults);
 }
 
+/// A record saved by the firmware before the motion-adaptive EKF settings (ids 14, 67, 68,
+/// 69; format version 1 then as now): every other setting's entry, with that firmware's
+/// defaults — the source's gate, 1 ± 0.05 g and χ² 16. It loads in full, the new settings
+/// keep their defaults (counted as missing), and the saved gate stays what was saved.
+#[test]
+fn a_record_from_before_the_new_ekf_settings_loads_with_their_defaults() {
+    const NEW: [u16; 4] = [14, 67, 68, 69];
+    let mut old = PipelineSettings::default();
+    old.filter.gate = ekf_core::settings::GateSettings::SOURCE;
+    old.depth.water_density_kg_m3 = 998.0;
+    let values: Vec<(u16, Vec<u8>)> = crate::registry::SETTINGS
+        .iter()
+        .filter(|s| !NEW.contains(&s.id))
+        .map(|s| {
+            let mut buf = [0u8; 12];
+            let n = s.encode(&s.get(&old), &mut buf);
+            (s.id, buf[..n].to_vec())
+        })
+        .collect();
+    let entries: Vec<(u16, &[u8])> = values.iter().map(|(id, v)| (*id, v.as_slice())).collect();
+    let mut f = SimFlash::new();
+    write_raw(&mut f, Page::A, 7, FORMAT_VERSION, &entries);
+    let l = load(&f);
+    assert_eq!(l.source, Source::Flash { page: Page::A, seq: 7 });
+    assert_eq!((l.skipped, l.missing), (0, NEW.len() as u16));
+    assert_eq!(l.settings, old);
+    assert_eq!(l.settings.filter.gate.norm_tolerance, 0.05);
+    assert_eq!(l.settings.filter.gate.innovation_chi2, 16.0);
+    let d = PipelineSettings::default();
+    assert_eq!(l.settings.filter.init.moving_bias_sigma, d.filter.init.moving_bias_sigma);
+    assert_eq!(l.settings.filter.ekf.accel_time_constant, d.filter.ekf.accel_time_constant);
+    assert_eq!(l.settings.filter.ekf.motion_scale, d.filter.ekf.motion_scale);
+    assert_eq!(l.settings.filter.ekf.motion_time_constant, d.filter.ekf.motion_time_constant);
+}
+
 /// The heart of the matter: a power cut after every single write step of a save, clean or
 /// leaving the interrupted step half done, from an empty flash, one record and two records.
 #[test]
@@ -288,7 +323,7 @@ fn registry_values_survive_a_save_exactly() {
             ),
             other => other,
         };
-        assert!(e.set(&mut s, v), "{}", e.name);
+        assert!(e.set(&mut s, v), "{}", e.name());
     }
     let mut f = SimFlash::new();
     save(&mut f, &s).unwrap();

@@ -1,6 +1,6 @@
 //! Where a setting lives in [`PipelineSettings`]: a typed mutable reference ([`Slot`]), found
 //! by the setting's id through one `match` generated from the table (`table.rs`). One small
-//! accessor for all 64 settings instead of a pair of functions per setting.
+//! accessor for every setting instead of a pair of functions per setting.
 
 use ekf_core::axis_map::AxisMap;
 use ekf_core::Vec3;

@@ -121,9 +121,9 @@ pub(super) fn after_write(s: &mut PipelineSettings, id: u16) {
 /// The table from its rows: [`SETTINGS`], the help texts (only the documentation uses them, so
 /// they are not in the firmware) and the accessor [`slot`].
 macro_rules! settings_table {
-    ($($kind:ident!($id:literal, $($row:tt)*)),* $(,)?) => {
+    ($($kind:ident!($id:literal, $name:literal, $($row:tt)*)),* $(,)?) => {
         /// Every setting, in documentation order.
-        pub static SETTINGS: [Setting; [$($id),*].len()] = [$($kind!($id, $($row)*)),*];
+        pub static SETTINGS: [Setting; [$($id),*].len()] = [$($kind!($id, $name, $($row)*)),*];
 
         /// `(id, help)` of every setting, in the order of [`SETTINGS`].
         pub(super) static HELP: [(u16, &str); SETTINGS.len()] = [$(($id, help_of!($($row)*))),*];
@@ -207,6 +207,16 @@ settings_table! {
         "gyro bias used when not estimated, body FRD",
         |s| s.filter.init.gyro_bias
     ),
+    num!(
+        14,
+        "init.moving_bias_sigma",
+        "deg/s",
+        DEG,
+        0.01,
+        50.0,
+        "standard deviation of `init.gyro_bias` after a window that was not still (started at once from it)",
+        |s| s.filter.init.moving_bias_sigma
+    ),
     // Accelerometer gate.
     num!(
         20,
@@ -215,7 +225,7 @@ settings_table! {
         1.0,
         0.001,
         1.0,
-        "skip the tilt update when the accelerometer norm differs from 1 g by more (fraction)",
+        "skip the tilt update when the accelerometer norm differs from 1 g by more (fraction; the source's gate: 0.05)",
         |s| s.filter.gate.norm_tolerance
     ),
     num!(
@@ -225,7 +235,7 @@ settings_table! {
         1.0,
         0.001,
         16.0,
-        "knock: skip when the accelerometer moves more between two samples",
+        "knock: skip when the accelerometer moves more between two samples (the EKF adds 3 standard deviations of the motion level, in quadrature)",
         |s| s.filter.gate.jump_g
     ),
     num!(
@@ -235,7 +245,7 @@ settings_table! {
         1.0,
         1.0,
         1e6,
-        "knock: skip when the normalised innovation squared exceeds it (2 dof)",
+        "knock: skip when the normalised innovation squared exceeds it (2 dof; 1000000: off; the source's gate: 16)",
         |s| s.filter.gate.innovation_chi2
     ),
     num!(
@@ -484,6 +494,36 @@ settings_table! {
         100.0,
         "gyro-bias standard deviation after initialisation",
         |s| s.filter.ekf.initial_bias_sigma
+    ),
+    num!(
+        67,
+        "ekf.accel_time_constant",
+        "s",
+        1.0,
+        0.0,
+        60.0,
+        "longest time constant of the accelerometer low-pass in NED (strong motion); 0: raw samples",
+        |s| s.filter.ekf.accel_time_constant
+    ),
+    num!(
+        68,
+        "ekf.motion_scale",
+        "g2",
+        1.0,
+        1e-7,
+        10.0,
+        "motion level at which the low-pass runs at half `ekf.accel_time_constant` and the bias learns at half gain",
+        |s| s.filter.ekf.motion_scale
+    ),
+    num!(
+        69,
+        "ekf.motion_time_constant",
+        "s",
+        1.0,
+        0.01,
+        60.0,
+        "averaging time of the motion level",
+        |s| s.filter.ekf.motion_time_constant
     ),
     // Sensor conditioning.
     axes!(70, "axes.gyro", "gyro axes (LPR430AL X, Y, LY330ALH Z outputs) to body FRD", |s| s
