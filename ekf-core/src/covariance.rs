@@ -276,9 +276,11 @@ impl Cov6 {
     #[inline(always)]
     fn update_untracked(&mut self, t: &TiltInnovation) -> [f32; N] {
         let mut dx = [0.0f32; N];
-        // The bias rows: the state's gain ×β, the covariance's ×(2β − β²).
+        // The bias rows: the state's gain ×β, the covariance's ×(2β − β²); nothing to scale
+        // when β = 1 (most still samples).
         let b = t.bias_gain;
-        let bb = b * (2.0 - b);
+        let scaled = b.to_bits() != 1.0f32.to_bits();
+        let bb = if scaled { b * (2.0 - b) } else { 1.0 };
         unroll!(j in [0, 1] {
             let first = j == 0;
             let (z, inv) = if first { (t.z[0], t.s_inv[0]) } else { (t.z2, t.s_inv[1]) };
@@ -293,7 +295,7 @@ impl Cov6 {
                 c[i] = p[i][j];
                 g[i] = c[i] * inv;
                 gp[i] = g[i];
-                if i >= 3 {
+                if i >= 3 && scaled {
                     gp[i] = bb * g[i];
                     g[i] *= b;
                 }

@@ -28,12 +28,14 @@ const MAX_ATT_VAR: f32 = 10.0;
 /// Largest bias-error variance before the health check resets the covariance, (rad/s)².
 const MAX_BIAS_VAR: f32 = 1.0;
 
-/// Tilt standard deviation after a start in motion, rad (30°).
-pub const MOVING_TILT_SIGMA: f32 = core::f32::consts::FRAC_PI_6;
-
 /// A knock is an accelerometer jump larger than `gate.jump_g` plus this many standard
 /// deviations of the current motion level.
 pub const KNOCK_SIGMAS: f32 = 3.0;
+
+/// Normalised innovation squared (2 degrees of freedom) beyond which the bias learns from the
+/// accelerometer in proportion `ROBUST_NIS / NIS` (a Huber-type weight on the bias only): the
+/// median of χ²₂ is 1.4, so consistent samples are untouched.
+const ROBUST_NIS: f32 = 2.0;
 
 /// Longest knock, s: rejections that last longer raise the motion level.
 pub const KNOCK_MAX_S: f32 = 0.2;
@@ -75,6 +77,10 @@ pub struct Ekf {
     prev_rate: Option<Vec3>,
     /// `1 / motion_time_constant`, 1/s.
     inv_motion_tau: f32,
+    /// `3·accel_var`: the motion level of the datasheet noise alone, g².
+    accel_var3: f32,
+    /// `dt` of the last accelerometer update and its motion-average weight `min(dt/τ, 1)`.
+    motion_dt: (f32, f32),
 }
 
 impl Ekf {
@@ -107,6 +113,8 @@ impl Ekf {
             accel_h: [0.0; 2],
             prev_rate: None,
             inv_motion_tau: 1.0 / settings.ekf.motion_time_constant.max(1e-3),
+            accel_var3: 3.0 * settings.noise.accel_var * settings.ekf.accel_var_scale,
+            motion_dt: (0.0, 0.0),
         }
     }
 
@@ -231,7 +239,11 @@ impl Ekf {
         let dn = norm_g - 1.0;
         let dev2 = dev[0] * dev[0] + dev[1] * dev[1] + dn * dn;
         let m = self.motion_var;
-        let m_next = m + fcmp::min(dt * self.inv_motion_tau, 1.0) * (dev2 - m);
+        if dt.to_bits() != self.motion_dt.0.to_bits() {
+            // Once per sample rate: the weight of one sample in the motion level's average.
+            self.motion_dt = (dt, fcmp::min(dt * self.inv_motion_tau, 1.0));
+        }
+        let m_next = m + self.motion_dt.1 * (dev2 - m);
         // A knock is a jump far beyond the current motion level (KNOCK_SIGMAS standard
         // deviations), so swinging or bobbing is not mistaken for one.
         let allowance = KNOCK_SIGMAS * KNOCK_SIGMAS * m;
@@ -251,10 +263,10 @@ impl Ekf {
         // Motion weight w = m / (m + motion_scale) in [0, 1): 0 still, → 1 in strong motion.
         // The low-pass's time constant is w·accel_time_constant: still, each sample is used as
         // it is; in motion, accelerations average out in the (almost inertial) NED frame while
-        // gravity stays. The bias learns from the accelerometer at (1 − w) of the Kalman gain.
-        let inv = 1.0 / (m + e.motion_scale);
-        let w = m * inv;
-        let alpha = dt / (lp * w + dt);
+        // gravity stays. α = dt / (w·τ + dt), written with one division.
+        let mm = m + e.motion_scale;
+        let dmm = dt * mm;
+        let alpha = dmm / (lp * m + dmm);
         self.accel_h[0] += dev[0] * alpha;
         self.accel_h[1] += dev[1] * alpha;
         // The filtered horizontal specific force in the estimate's NED frame, in g: for a tilt
@@ -266,14 +278,22 @@ impl Ekf {
         let Some(mut t) = self.p.tilt_innovation(z, var) else {
             return Flags::HEALTH_RESET;
         };
-        t.bias_gain = e.motion_scale * inv;
-
-        // The innovation test, unless it is off (`INNOVATION_GATE_OFF`: the default).
-        let nis = if self.settings.gate.innovation_chi2 < crate::gate::INNOVATION_GATE_OFF {
-            t.nis()
-        } else {
-            0.0
-        };
+        // The bias learns from this measurement as if its variance were that of the raw
+        // samples' scatter, m/3 per axis, when that is the larger: the low-pass makes
+        // consecutive measurements alike, not independent, so it adds no information about the
+        // bias, and vibration or motion would otherwise drive the bias through the tilt–bias
+        // correlation. And robustly: an innovation beyond ROBUST_NIS of what S expects moves
+        // the bias in proportion (Huber). One division: β = (S₀/S_eff)·(c / max(NIS, c)).
+        let nis = t.nis();
+        // Most still samples are neither (β stays 1 and the update skips its scaling).
+        let scatter = fcmp::gt(m, self.accel_var3);
+        let outlier = fcmp::gt(nis, ROBUST_NIS);
+        if scatter || outlier {
+            let p0 = self.p.m[0][0];
+            let (num, den) = if scatter { (p0 + var, p0 + m * (1.0 / 3.0)) } else { (1.0, 1.0) };
+            let (c, den_n) = if outlier { (ROBUST_NIS, nis) } else { (1.0, 1.0) };
+            t.bias_gain = (num * c) / (den * den_n);
+        }
         let mut flags = match self.gate.innovation(dt, nis, bypass) {
             Ok(f) => f,
             Err(f) => return f,
@@ -454,10 +474,17 @@ impl AttitudeFilter for Ekf {
                 InitStep::Done(q, b) => {
                     let var = init.bias_variance(&self.settings.noise);
                     let moving = init.was_moving();
+                    let level = init.motion_level();
                     self.start(q, b);
+                    // The motion level starts from the window's, not from rest: vibration or
+                    // motion in the window weights the first samples at once.
+                    self.motion_var = level;
                     if moving {
                         // A start in motion: tilt from a moving accelerometer, bias configured.
-                        let t = MOVING_TILT_SIGMA * MOVING_TILT_SIGMA;
+                        // Tilt as uncertain as the accelerometer's spread in the window (g² ≈
+                        // rad² of direction), at least the still start's.
+                        let t0 = self.settings.ekf.initial_tilt_sigma;
+                        let t = if fcmp::gt(level, t0 * t0) { level } else { t0 * t0 };
                         let b = self.settings.init.moving_bias_sigma;
                         self.p = Cov6::diagonal([t, t, t, b * b, b * b, b * b]);
                         self.moving_start = true;

@@ -22,6 +22,8 @@ pub const INNOVATION_GATE_OFF: f32 = 1e6;
 #[derive(Clone, Copy, Debug)]
 pub struct AccelGate {
     settings: GateSettings,
+    /// `jump_g²`.
+    jump_sq: f32,
     prev: Option<Vec3>,
     holdoff_left: f32,
     rejected_for: f32,
@@ -43,7 +45,8 @@ pub enum PreCheck {
 impl AccelGate {
     /// A fresh gate.
     pub fn new(settings: GateSettings) -> Self {
-        AccelGate { settings, prev: None, holdoff_left: 0.0, rejected_for: 0.0 }
+        let jump_sq = settings.jump_g * settings.jump_g;
+        AccelGate { settings, jump_sq, prev: None, holdoff_left: 0.0, rejected_for: 0.0 }
     }
 
     /// Forget the previous sample and timers.
@@ -61,7 +64,7 @@ impl AccelGate {
     /// `√(jump_g² + allowance)` (`allowance` in g²: what the current motion explains).
     pub fn pre_check(&mut self, dt: f32, a_g: Vec3, norm_g: f32, allowance: f32) -> PreCheck {
         let j = self.settings.jump_g;
-        let j2 = j * j + allowance;
+        let j2 = self.jump_sq + allowance;
         let jump = self
             .prev
             .map(|p| {

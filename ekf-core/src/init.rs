@@ -42,6 +42,36 @@ pub enum InitStep {
 pub const MIN_CHECK_SAMPLES: u32 = 10;
 /// Time before the window's stillness is judged, s.
 pub const MIN_CHECK_S: f32 = 0.2;
+/// Largest gyro variance per axis of a still window, as a multiple of the configured noise
+/// variance: 40 (6.3× in standard deviation). Tolerant of a noise setting 10× too low and of
+/// vibration and quantisation; the motion that corrupts a window's mean is orders of magnitude
+/// above it (a 15° pitch sine at 0.1 Hz: 44 (°/s)², 130× the x gyro's noise variance). Steady
+/// turns have no spread: the mean test catches them.
+pub const WINDOW_GYRO_VAR_FACTOR: f32 = 40.0;
+/// Largest accelerometer standard deviation per axis of a still window, as a multiple of
+/// `rest.accel_std_max_g` (0.01 g): 0.05 g. Vibration of a few hundredths of g (a pump, a
+/// thruster at idle) averages out of the tilt and does not touch the gyro bias; a 15° pitch
+/// sine spreads the accelerometer by 0.18 g.
+pub const WINDOW_ACCEL_STD_FACTOR: f32 = 5.0;
+
+/// Interval between the window's still checkpoints, s.
+pub const CHECKPOINT_S: f32 = 0.25;
+/// A window found moving still gives its bias and tilt when it had been still for this long
+/// before (up to the checkpoint two [`CHECKPOINT_S`] before the last: motion that begins slowly
+/// is seen up to half a second late), s.
+pub const MIN_STILL_PREFIX_S: f32 = 0.5;
+
+/// The window's sums up to a point.
+#[derive(Clone, Copy, Debug, Default)]
+struct Sums {
+    elapsed: f32,
+    acc_sum: Vec3,
+    acc_sq: Vec3,
+    acc_n: u32,
+    gyro_sum: Vec3,
+    gyro_sq: Vec3,
+    gyro_n: u32,
+}
 
 /// Accumulates the initialisation window.
 #[derive(Clone, Copy, Debug)]
@@ -62,13 +92,19 @@ pub struct Initializer {
     /// Largest accelerometer variance per axis of a still window, g².
     accel_var_max: f32,
     moving: bool,
+    /// The sums at the last still checkpoint, and at the two before it.
+    checkpoint: Sums,
+    previous: Sums,
+    still_prefix: Sums,
+    /// The accelerometer variance of the whole window when it ended (g², summed over axes).
+    level: Option<f32>,
 }
 
 impl Initializer {
     /// A new window with the settings' initial yaw. A window is still when, per axis, the
-    /// gyro's variance is within `rest.gyro_var_factor` times the configured noise, the
-    /// accelerometer's standard deviation within `rest.accel_std_max_g` (the rest detector's
-    /// criteria), and the mean gyro within 3 `moving_bias_sigma` of `gyro_bias`.
+    /// gyro's variance is within [`WINDOW_GYRO_VAR_FACTOR`] times the configured noise, the
+    /// accelerometer's standard deviation within [`WINDOW_ACCEL_STD_FACTOR`] ×
+    /// `rest.accel_std_max_g`, and the mean gyro within 3 `moving_bias_sigma` of `gyro_bias`.
     pub fn new(s: &Settings) -> Self {
         Initializer {
             settings: s.init,
@@ -80,16 +116,38 @@ impl Initializer {
             gyro_sum: Vec3::ZERO,
             gyro_sq: Vec3::ZERO,
             gyro_n: 0,
-            gyro_var_max: s.noise.gyro_var * s.rest.gyro_var_factor,
+            gyro_var_max: s.noise.gyro_var * WINDOW_GYRO_VAR_FACTOR,
             gyro_ref_rate_hz: s.noise.gyro_ref_rate_hz.max(1e-3),
-            accel_var_max: s.rest.accel_std_max_g * s.rest.accel_std_max_g,
+            accel_var_max: {
+                let a = s.rest.accel_std_max_g * WINDOW_ACCEL_STD_FACTOR;
+                a * a
+            },
             moving: false,
+            checkpoint: Sums::default(),
+            previous: Sums::default(),
+            still_prefix: Sums::default(),
+            level: None,
         }
     }
 
     /// True when the window was found moving: it ended early, the bias was not taken from it.
     pub fn was_moving(&self) -> bool {
         self.moving
+    }
+
+    /// The accelerometer's variance over the window so far, summed over the axes, g² (0 before
+    /// two samples): the motion level the filter starts from.
+    pub fn motion_level(&self) -> f32 {
+        if let Some(l) = self.level {
+            return l;
+        }
+        if self.acc_n < 2 {
+            return 0.0;
+        }
+        let k = 1.0 / self.acc_n as f32;
+        let m = (self.acc_sum * k).to_array();
+        let sq = self.acc_sq.to_array();
+        (0..3).map(|i| (sq[i] * k - m[i] * m[i]).max(0.0)).sum()
     }
 
     /// The stillness test of [`Initializer::new`] on the samples so far.
@@ -115,6 +173,24 @@ impl Initializer {
             let am = (self.acc_sum * k).to_array();
             for (m, s) in am.iter().zip(self.acc_sq.to_array()) {
                 if !(s * k - m * m <= self.accel_var_max) {
+                    return true;
+                }
+            }
+        }
+        // Motion that begins after a still part: the samples since the last checkpoint against
+        // those before it — a spread, or a mean rate 3 standard errors away.
+        let cp = self.checkpoint;
+        let ns = self.gyro_n - cp.gyro_n;
+        if cp.gyro_n >= MIN_CHECK_SAMPLES && ns >= MIN_CHECK_SAMPLES {
+            let (ns, nc) = (ns as f32, cp.gyro_n as f32);
+            let seg_mean = ((self.gyro_sum - cp.gyro_sum) * (1.0 / ns)).to_array();
+            let seg_sq = (self.gyro_sq - cp.gyro_sq).to_array();
+            let cp_mean = (cp.gyro_sum * (1.0 / nc)).to_array();
+            let k = 1.0 / ns + 1.0 / nc;
+            for i in 0..3 {
+                let var = seg_sq[i] / ns - seg_mean[i] * seg_mean[i];
+                let d = seg_mean[i] - cp_mean[i];
+                if !(var <= var_max[i]) || !(d * d <= 9.0 * var_max[i] * k) {
                     return true;
                 }
             }
@@ -180,20 +256,61 @@ impl Initializer {
         // s = 9.9999 s), and the window must end on the sample nearest its length, not on the
         // next one, which may already be moving.
         if self.acc_n > 0 && self.is_moving() {
+            self.level = Some(self.motion_level());
+            let p = self.still_prefix;
+            if p.elapsed >= MIN_STILL_PREFIX_S && p.acc_n > 0 && p.gyro_n > 0 {
+                // Still before the motion began: the window ends there, a shorter still window
+                // (its sums up to the checkpoint two before the last).
+                self.restore(p);
+                return self.finish();
+            }
             // Not still: start now, from the configured bias (the filter widens its covariance).
             self.moving = true;
             return InitStep::Done(q, self.settings.gyro_bias);
         }
+        if self.elapsed - self.checkpoint.elapsed >= CHECKPOINT_S {
+            self.still_prefix = self.previous;
+            self.previous = self.checkpoint;
+            self.checkpoint = self.sums();
+        }
         if self.elapsed >= self.settings.window_s - 0.5 * dt && self.acc_n > 0 {
-            let bias = if self.settings.estimate_gyro_bias && self.gyro_n > 0 {
-                self.gyro_sum * (1.0 / self.gyro_n as f32)
-            } else {
-                self.settings.gyro_bias
-            };
-            InitStep::Done(q, bias)
+            self.finish()
         } else {
             InitStep::Pending(q)
         }
+    }
+
+    /// The end of a still window: tilt from the mean accelerometer, bias from the mean gyro.
+    fn finish(&self) -> InitStep {
+        let q = attitude_from_accel(self.acc_sum, self.yaw);
+        let bias = if self.settings.estimate_gyro_bias && self.gyro_n > 0 {
+            self.gyro_sum * (1.0 / self.gyro_n as f32)
+        } else {
+            self.settings.gyro_bias
+        };
+        InitStep::Done(q, bias)
+    }
+
+    fn sums(&self) -> Sums {
+        Sums {
+            elapsed: self.elapsed,
+            acc_sum: self.acc_sum,
+            acc_sq: self.acc_sq,
+            acc_n: self.acc_n,
+            gyro_sum: self.gyro_sum,
+            gyro_sq: self.gyro_sq,
+            gyro_n: self.gyro_n,
+        }
+    }
+
+    fn restore(&mut self, p: Sums) {
+        self.elapsed = p.elapsed;
+        self.acc_sum = p.acc_sum;
+        self.acc_sq = p.acc_sq;
+        self.acc_n = p.acc_n;
+        self.gyro_sum = p.gyro_sum;
+        self.gyro_sq = p.gyro_sq;
+        self.gyro_n = p.gyro_n;
     }
 }
 
@@ -293,6 +410,21 @@ mod tests {
         let (_, b) = run_window(&mut init, |_| configured + Vec3::new(0.0, 0.0, deg(10.0)));
         assert!(init.was_moving());
         assert_eq!(b, configured);
+        // Still for 2 s, then the pitch sine: the window ends at the still part's last
+        // checkpoint before the motion, a shorter still window, and its bias is measured.
+        let mut init = Initializer::new(&s);
+        let off = configured + Vec3::new(deg(0.5), deg(-0.3), deg(0.2));
+        let (k, b) = run_window(&mut init, |t| {
+            let pitch = if t < 2.0 { 0.0 } else { deg(9.42) * mathf::sin(0.628 * (t - 2.0)) };
+            off + Vec3::new(0.0, pitch, 0.0)
+        });
+        assert!(!init.was_moving());
+        // Seen at 2.8 s (the rate reaches the window's 3-standard-error test about 0.6 s in);
+        // the window ends at 2.25 s or before, with at most the sine's first 0.25 s in it.
+        assert!((120..160).contains(&k), "{k}");
+        assert!(init.elapsed() <= 2.3, "{}", init.elapsed());
+        assert!((b - off).max_abs() < deg(0.05), "{b:?}");
+        assert!(init.bias_variance(&s.noise).is_some());
         // The same window still, with a bias 1 °/s off the configured one: averaged for 10 s.
         let mut init = Initializer::new(&s);
         let off = configured + Vec3::new(deg(1.0), 0.0, 0.0);

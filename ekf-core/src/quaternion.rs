@@ -103,7 +103,13 @@ impl Quaternion {
             // Series in x = a/2 to x⁶: the truncation error (< x⁸/40320 ≈ 4e-10 for a < 0.5)
             // is far below f32 resolution, and it costs no trigonometric call.
             let x2 = mathf::quarter(a2);
-            if crate::fcmp::lt(x2, 1e-3) {
+            if crate::fcmp::lt(x2, 4.9e-4) {
+                // |x| < 0.022 (a rate below 2.2 rad/s, 126 °/s, at 50 Hz): the x⁴ terms are
+                // below x⁴/24 = 1e-8, a sixth of the last place of 1 (f32 resolution 6e-8).
+                let c = 1.0 - mathf::half(x2);
+                let s = mathf::half(1.0 - x2 * (1.0 / 6.0));
+                (c, s)
+            } else if crate::fcmp::lt(x2, 1e-3) {
                 // |x| < 0.032 (a rate below 3.2 rad/s at 50 Hz): the x⁶ terms are below 2e-12,
                 // under a hundred-thousandth of the last place of 1.
                 let c = 1.0 - x2 * (0.5 - x2 * (1.0 / 24.0));

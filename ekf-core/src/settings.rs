@@ -265,9 +265,8 @@ pub struct EkfSettings {
     /// (RepoIMU and the simulated scenarios, `docs/accuracy.md`). 0: raw samples always.
     pub accel_time_constant: f32,
     /// Motion level at which the motion weight is ½, g² (mean squared deviation of the
-    /// specific force from its low-pass): the low-pass runs at half its longest time constant
-    /// and the bias learns from the accelerometer at half the Kalman gain. Default 1e−3 g²
-    /// ((0.032 g)², 400× the accelerometer's noise variance).
+    /// specific force from its low-pass): the low-pass runs at half its longest time constant.
+    /// Default 1e−3 g² ((0.032 g)², 400× the accelerometer's noise variance).
     pub motion_scale: f32,
     /// Time constant of the motion level's average, s. Default 1 s.
     pub motion_time_constant: f32,

@@ -541,7 +541,9 @@ mod tests {
         assert!((r.z - 0.196).abs() < 1e-6);
         let r = replay_config(Scenario::Pendulum).conditioning.lever_arm.r;
         assert_eq!(r, ekf_core::Vec3::ZERO);
-        assert_eq!(replay_config(Scenario::Tumble), ReplayConfig::default());
+        let mut tumble = ReplayConfig::default();
+        tumble.conditioning.lever_arm.tangential = true;
+        assert_eq!(replay_config(Scenario::Tumble), tumble);
     }
 
     #[test]

@@ -617,7 +617,7 @@ impl Realism {
         let f = self.gyro_flicker_dps;
         let q = self.gyro_lsb_dps;
         format!(
-            "realism on: gyro bias random walk {} {} {} deg/s/sqrt(s), flicker (Allan floor) {}              {} {} deg/s (Gauss-Markov tau {:?} s), gyro scale +-{} %, cross-axis +-{} %,              accel bias +-{} mg, accel scale +-{} %, gyro step {:.4} {:.4} {:.4} deg/s, full              scale +-{} deg/s, accel step {} mg, full scale +-{} g, sample jitter {} ms rms,              repeated rows {} %, vibration {} g / {} deg/s rms per axis at {}-{} Hz",
+            "realism on: gyro bias random walk {} {} {} deg/s/sqrt(s), flicker (Allan floor) {} {} {} deg/s (Gauss-Markov tau {:?} s), gyro scale +-{} %, cross-axis +-{} %, accel bias +-{} mg, accel scale +-{} %, gyro step {:.4} {:.4} {:.4} deg/s, full scale +-{} deg/s, accel step {} mg, full scale +-{} g, sample jitter {} ms rms, repeated rows {} %, vibration {} g / {} deg/s rms per axis at {}-{} Hz",
             r[0],
             r[1],
             r[2],

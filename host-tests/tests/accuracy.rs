@@ -59,23 +59,28 @@ fn ekf_holds_yaw_for_an_hour() {
     check(&[Scenario::StillHour, Scenario::BiasOff]);
 }
 
+/// Mean (inclination, heading) RMSE of the EKF over the 6 RepoIMU recordings with `cfg`.
+fn repoimu_means(cfg: &host_tests::config::ReplayConfig) -> (f64, f64) {
+    let files = RepoImu::load(&RepoImu::dir()).expect("RepoIMU data");
+    let (mut si, mut sh) = (0.0, 0.0);
+    for (name, rows) in &files {
+        let r = score(rows, FilterKind::Ekf, cfg).expect("rows with truth");
+        eprintln!("{name}: inclination {:.3}°, heading {:.3}°", r.inclination_deg, r.heading_deg);
+        assert!(r.inclination_deg.is_finite() && r.heading_deg.is_finite(), "{name}: {r:?}");
+        si += r.inclination_deg;
+        sh += r.heading_deg;
+    }
+    let n = files.len() as f64;
+    (si / n, sh / n)
+}
+
 #[test]
 fn ekf_beats_vqf_online_inclination_on_repoimu() {
     // The 6 recordings of ../shared/data/repoimu (always present), the EKF with the defaults
     // and no lever arm (`RepoImu::config`): mean inclination RMSE below VQF 2.1 online's
-    // 3.29° (2.71° when this test was written). Heading is not guarded (no magnetometer: the
-    // EKF's heading drifts on this rig; see docs/accuracy.md).
+    // 3.29° (2.74° when this test was written).
     let start = Instant::now();
-    let files = RepoImu::load(&RepoImu::dir()).expect("RepoIMU data");
-    let cfg = RepoImu::config();
-    let mut sum = 0.0;
-    for (name, rows) in &files {
-        let r = score(rows, FilterKind::Ekf, &cfg).expect("rows with truth");
-        eprintln!("{name}: inclination {:.3}°, heading {:.3}°", r.inclination_deg, r.heading_deg);
-        assert!(r.inclination_deg.is_finite(), "{name}: {r:?}");
-        sum += r.inclination_deg;
-    }
-    let mean = sum / files.len() as f64;
+    let (mean, _) = repoimu_means(&RepoImu::config());
     let goal = RepoImu::VQF_ONLINE.0;
     eprintln!(
         "mean inclination {mean:.3}°, goal < {goal}° ({:.2} s)",
@@ -85,10 +90,20 @@ fn ekf_beats_vqf_online_inclination_on_repoimu() {
 }
 
 #[test]
+fn ekf_heading_on_repoimu_holds() {
+    // The same files, default settings and no lever arm: the windows are still for about 1.5 s
+    // before the pendulum swings, and the bias comes from that still part (`init.rs`, still
+    // prefix). Mean heading RMSE 15.3° when this test was written (VQF 2.1 online: 11.0°, not
+    // met; 78° with the configured iNEMO bias). Held below 20°.
+    let (_, heading) = repoimu_means(&RepoImu::config());
+    assert!(heading < 20.0, "mean heading RMSE {heading:.3}° >= 20°");
+}
+
+#[test]
 fn ekf_keeps_the_robustness_goals() {
     // Seed 1, plain sensors. Every robust scenario that meets its goal (tilt RMSE ≤ 0.5°) keeps
     // it: tumble ≈ 0.18°, side-mount ≈ 0.09°, start-moving ≈ 0.07° when this was written.
-    // `pendulum` (≈ 0.55°) does not meet it yet: it is held below 1.0° instead.
+    // `pendulum` (≈ 0.56°) does not meet it: it is held below 1.0° instead.
     let mut failures = Vec::new();
     for s in ROBUST_SCENARIOS {
         let start = Instant::now();
@@ -108,4 +123,64 @@ fn ekf_keeps_the_robustness_goals() {
         }
     }
     assert!(failures.is_empty(), "robustness regressions:\n{}", failures.join("\n"));
+}
+
+#[test]
+fn a_still_board_with_realistic_sensors_keeps_its_bias() {
+    // `still-hour` for 120 s with the realistic sensor errors (vibration 0.02 g, quantisation,
+    // jitter, repeated samples, bias instability: host-tests/src/sim.rs), replayed twice: with
+    // the defaults (the window is still: vibration and quantisation are within its limits) and
+    // started at once with the 2 °/s bias uncertainty and 30° tilt uncertainty of a start in
+    // motion. The bias must stay put in both. (Session 6: a window that took the vibration for
+    // motion ran its z bias to 4 °/s with the first bias-gain design; the window's limits and
+    // the bias gain of docs/filter.md are what keep it. `ekf_heading_on_repoimu_holds` is the
+    // test that fails without that bias gain.)
+    use host_tests::accuracy::{replay_config, simulate_with};
+    use host_tests::sim::{SimOptions, GYRO_BIAS_DPS};
+    let opts = SimOptions {
+        seed: SEED,
+        duration_s: Some(120.0),
+        realistic: true,
+        ..SimOptions::default()
+    };
+    let rows = simulate_with(Scenario::StillHour, &opts);
+    for moving_start in [false, true] {
+        let mut cfg = replay_config(Scenario::StillHour);
+        if moving_start {
+            cfg.settings.init.window_s = 0.0;
+            cfg.settings.ekf.initial_bias_sigma = 2f32.to_radians();
+            cfg.settings.ekf.initial_tilt_sigma = 30f32.to_radians();
+        }
+        let mut f = cfg.make_filter(FilterKind::Ekf);
+        let mut cond = ekf_core::conditioning::Conditioner::new(cfg.conditioning);
+        let mut worst_bias = 0.0f64;
+        let mut yaw = (0.0f64, 0.0f64);
+        host_tests::replay::replay_rows(
+            rows.iter().map(|r| Ok(*r)),
+            f.as_mut(),
+            &mut cond,
+            10.0,
+            |r, e| {
+                if r.t >= 20.0 {
+                    for i in 0..3 {
+                        worst_bias =
+                            worst_bias.max((e.bias_dps[i] as f64 - GYRO_BIAS_DPS[i]).abs());
+                    }
+                    if r.t < 20.02 {
+                        yaw.0 = e.euler_deg[2] as f64;
+                    }
+                    yaw.1 = e.euler_deg[2] as f64;
+                }
+                Ok(())
+            },
+        )
+        .unwrap();
+        let turned = host_tests::replay::wrap_deg(yaw.1 - yaw.0);
+        eprintln!("moving start {moving_start}: worst bias error after 20 s {worst_bias:.3} °/s, yaw turned {turned:.2}° in 100 s");
+        // The simulated bias wanders too (random walk and flicker); a moving start learns the
+        // x/y bias of the board's noisy gyros from the accelerometer within a few tenths of a
+        // degree per second.
+        assert!(worst_bias < 0.5, "moving start {moving_start}: bias off by {worst_bias:.3} °/s");
+        assert!(turned.abs() < 20.0, "moving start {moving_start}: yaw turned {turned:.2}°");
+    }
 }

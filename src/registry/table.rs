@@ -512,7 +512,7 @@ settings_table! {
         1.0,
         1e-7,
         10.0,
-        "motion level at which the low-pass runs at half `ekf.accel_time_constant` and the bias learns at half gain",
+        "motion level at which the low-pass runs at half `ekf.accel_time_constant`",
         |s| s.filter.ekf.motion_scale
     ),
     num!(
