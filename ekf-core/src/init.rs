@@ -78,13 +78,8 @@ struct Sums {
 pub struct Initializer {
     settings: InitSettings,
     yaw: f32,
-    elapsed: f32,
-    acc_sum: Vec3,
-    acc_sq: Vec3,
-    acc_n: u32,
-    gyro_sum: Vec3,
-    gyro_sq: Vec3,
-    gyro_n: u32,
+    /// The sums over the window so far.
+    s: Sums,
     /// Largest per-sample gyro variance of a still window at the reference rate, (rad/s)².
     gyro_var_max: Vec3,
     /// Reference rate of `gyro_var_max`, Hz.
@@ -109,13 +104,7 @@ impl Initializer {
         Initializer {
             settings: s.init,
             yaw: s.init.initial_yaw,
-            elapsed: 0.0,
-            acc_sum: Vec3::ZERO,
-            acc_sq: Vec3::ZERO,
-            acc_n: 0,
-            gyro_sum: Vec3::ZERO,
-            gyro_sq: Vec3::ZERO,
-            gyro_n: 0,
+            s: Sums::default(),
             gyro_var_max: s.noise.gyro_var * WINDOW_GYRO_VAR_FACTOR,
             gyro_ref_rate_hz: s.noise.gyro_ref_rate_hz.max(1e-3),
             accel_var_max: {
@@ -141,25 +130,25 @@ impl Initializer {
         if let Some(l) = self.level {
             return l;
         }
-        if self.acc_n < 2 {
+        if self.s.acc_n < 2 {
             return 0.0;
         }
-        let k = 1.0 / self.acc_n as f32;
-        let m = (self.acc_sum * k).to_array();
-        let sq = self.acc_sq.to_array();
+        let k = 1.0 / self.s.acc_n as f32;
+        let m = (self.s.acc_sum * k).to_array();
+        let sq = self.s.acc_sq.to_array();
         (0..3).map(|i| (sq[i] * k - m[i] * m[i]).max(0.0)).sum()
     }
 
     /// The stillness test of [`Initializer::new`] on the samples so far.
     fn is_moving(&self) -> bool {
-        if self.gyro_n < MIN_CHECK_SAMPLES || !(self.elapsed >= MIN_CHECK_S) {
+        if self.s.gyro_n < MIN_CHECK_SAMPLES || !(self.s.elapsed >= MIN_CHECK_S) {
             return false;
         }
-        let n = self.gyro_n as f32;
-        let mean = (self.gyro_sum * (1.0 / n)).to_array();
+        let n = self.s.gyro_n as f32;
+        let mean = (self.s.gyro_sum * (1.0 / n)).to_array();
         // Per-sample noise scales with the sample rate (constant noise density).
-        let var_max = (self.gyro_var_max * (n / self.elapsed / self.gyro_ref_rate_hz)).to_array();
-        let sq = self.gyro_sq.to_array();
+        let var_max = (self.gyro_var_max * (n / self.s.elapsed / self.gyro_ref_rate_hz)).to_array();
+        let sq = self.s.gyro_sq.to_array();
         let configured = self.settings.gyro_bias.to_array();
         let off_max = 3.0 * self.settings.moving_bias_sigma;
         for (((m, v), s), c) in mean.iter().zip(var_max).zip(sq).zip(configured) {
@@ -168,10 +157,10 @@ impl Initializer {
                 return true;
             }
         }
-        if self.acc_n >= MIN_CHECK_SAMPLES {
-            let k = 1.0 / self.acc_n as f32;
-            let am = (self.acc_sum * k).to_array();
-            for (m, s) in am.iter().zip(self.acc_sq.to_array()) {
+        if self.s.acc_n >= MIN_CHECK_SAMPLES {
+            let k = 1.0 / self.s.acc_n as f32;
+            let am = (self.s.acc_sum * k).to_array();
+            for (m, s) in am.iter().zip(self.s.acc_sq.to_array()) {
                 if !(s * k - m * m <= self.accel_var_max) {
                     return true;
                 }
@@ -180,11 +169,11 @@ impl Initializer {
         // Motion that begins after a still part: the samples since the last checkpoint against
         // those before it — a spread, or a mean rate 3 standard errors away.
         let cp = self.checkpoint;
-        let ns = self.gyro_n - cp.gyro_n;
+        let ns = self.s.gyro_n - cp.gyro_n;
         if cp.gyro_n >= MIN_CHECK_SAMPLES && ns >= MIN_CHECK_SAMPLES {
             let (ns, nc) = (ns as f32, cp.gyro_n as f32);
-            let seg_mean = ((self.gyro_sum - cp.gyro_sum) * (1.0 / ns)).to_array();
-            let seg_sq = (self.gyro_sq - cp.gyro_sq).to_array();
+            let seg_mean = ((self.s.gyro_sum - cp.gyro_sum) * (1.0 / ns)).to_array();
+            let seg_sq = (self.s.gyro_sq - cp.gyro_sq).to_array();
             let cp_mean = (cp.gyro_sum * (1.0 / nc)).to_array();
             let k = 1.0 / ns + 1.0 / nc;
             for i in 0..3 {
@@ -212,7 +201,7 @@ impl Initializer {
 
     /// Time accumulated so far, s.
     pub fn elapsed(&self) -> f32 {
-        self.elapsed
+        self.s.elapsed
     }
 
     /// Variance of the window's gyro-bias estimate per axis, (rad/s)²: the configured
@@ -222,13 +211,13 @@ impl Initializer {
     pub fn bias_variance(&self, noise: &crate::settings::NoiseSettings) -> Option<Vec3> {
         if !self.settings.estimate_gyro_bias
             || self.moving
-            || self.gyro_n == 0
-            || !(self.elapsed > 0.0)
+            || self.s.gyro_n == 0
+            || !(self.s.elapsed > 0.0)
         {
             return None;
         }
-        let n = self.gyro_n as f32;
-        let rate_hz = n / self.elapsed;
+        let n = self.s.gyro_n as f32;
+        let rate_hz = n / self.s.elapsed;
         let floor = Vec3::new(BIAS_VAR_FLOOR, BIAS_VAR_FLOOR, BIAS_VAR_FLOOR);
         Some(noise.gyro_var * (rate_hz / noise.gyro_ref_rate_hz.max(1e-3) / n) + floor)
     }
@@ -236,44 +225,44 @@ impl Initializer {
     /// Add one sample: `dt` s, the gyro (rad/s) when valid, the accelerometer (any unit, body
     /// FRD) when it passed the magnitude gate.
     pub fn push(&mut self, dt: f32, gyro: Option<Vec3>, accel: Option<Vec3>) -> InitStep {
-        self.elapsed += dt;
+        self.s.elapsed += dt;
         if let Some(g) = gyro {
-            self.gyro_sum += g;
-            self.gyro_sq += Vec3::new(g.x * g.x, g.y * g.y, g.z * g.z);
-            self.gyro_n += 1;
+            self.s.gyro_sum += g;
+            self.s.gyro_sq += Vec3::new(g.x * g.x, g.y * g.y, g.z * g.z);
+            self.s.gyro_n += 1;
         }
         if let Some(a) = accel {
-            self.acc_sum += a;
-            self.acc_sq += Vec3::new(a.x * a.x, a.y * a.y, a.z * a.z);
-            self.acc_n += 1;
+            self.s.acc_sum += a;
+            self.s.acc_sq += Vec3::new(a.x * a.x, a.y * a.y, a.z * a.z);
+            self.s.acc_n += 1;
         }
-        let q = if self.acc_n > 0 {
-            attitude_from_accel(self.acc_sum, self.yaw)
+        let q = if self.s.acc_n > 0 {
+            attitude_from_accel(self.s.acc_sum, self.yaw)
         } else {
             Quaternion::from_yaw(self.yaw)
         };
         // Half a sample of tolerance: f32 sums of dt fall just short of the window (500 × 0.02
         // s = 9.9999 s), and the window must end on the sample nearest its length, not on the
         // next one, which may already be moving.
-        if self.acc_n > 0 && self.is_moving() {
+        if self.s.acc_n > 0 && self.is_moving() {
             self.level = Some(self.motion_level());
             let p = self.still_prefix;
             if p.elapsed >= MIN_STILL_PREFIX_S && p.acc_n > 0 && p.gyro_n > 0 {
                 // Still before the motion began: the window ends there, a shorter still window
                 // (its sums up to the checkpoint two before the last).
-                self.restore(p);
+                self.s = p;
                 return self.finish();
             }
             // Not still: start now, from the configured bias (the filter widens its covariance).
             self.moving = true;
             return InitStep::Done(q, self.settings.gyro_bias);
         }
-        if self.elapsed - self.checkpoint.elapsed >= CHECKPOINT_S {
+        if self.s.elapsed - self.checkpoint.elapsed >= CHECKPOINT_S {
             self.still_prefix = self.previous;
             self.previous = self.checkpoint;
-            self.checkpoint = self.sums();
+            self.checkpoint = self.s;
         }
-        if self.elapsed >= self.settings.window_s - 0.5 * dt && self.acc_n > 0 {
+        if self.s.elapsed >= self.settings.window_s - 0.5 * dt && self.s.acc_n > 0 {
             self.finish()
         } else {
             InitStep::Pending(q)
@@ -282,35 +271,13 @@ impl Initializer {
 
     /// The end of a still window: tilt from the mean accelerometer, bias from the mean gyro.
     fn finish(&self) -> InitStep {
-        let q = attitude_from_accel(self.acc_sum, self.yaw);
-        let bias = if self.settings.estimate_gyro_bias && self.gyro_n > 0 {
-            self.gyro_sum * (1.0 / self.gyro_n as f32)
+        let q = attitude_from_accel(self.s.acc_sum, self.yaw);
+        let bias = if self.settings.estimate_gyro_bias && self.s.gyro_n > 0 {
+            self.s.gyro_sum * (1.0 / self.s.gyro_n as f32)
         } else {
             self.settings.gyro_bias
         };
         InitStep::Done(q, bias)
-    }
-
-    fn sums(&self) -> Sums {
-        Sums {
-            elapsed: self.elapsed,
-            acc_sum: self.acc_sum,
-            acc_sq: self.acc_sq,
-            acc_n: self.acc_n,
-            gyro_sum: self.gyro_sum,
-            gyro_sq: self.gyro_sq,
-            gyro_n: self.gyro_n,
-        }
-    }
-
-    fn restore(&mut self, p: Sums) {
-        self.elapsed = p.elapsed;
-        self.acc_sum = p.acc_sum;
-        self.acc_sq = p.acc_sq;
-        self.acc_n = p.acc_n;
-        self.gyro_sum = p.gyro_sum;
-        self.gyro_sq = p.gyro_sq;
-        self.gyro_n = p.gyro_n;
     }
 }
 

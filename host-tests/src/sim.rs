@@ -958,6 +958,17 @@ impl Simulator {
 
     /// Truth at `t`: attitude, ω, ω̇. Body-rate trajectories integrate forward from the last
     /// call (calls must come in increasing time).
+    /// The magnetometer's reading at attitude `q` (the field in body axes plus its noise), when
+    /// it is simulated.
+    fn mag_sample(&mut self, q: Q) -> Option<[f32; 3]> {
+        let s = self.cfg.sensors;
+        if !s.mag {
+            return None;
+        }
+        let m = rotate_inverse(q, s.mag_field_ned);
+        Some([0, 1, 2].map(|i| (m[i] + s.mag_noise_ut * self.mag_rng.normal()) as f32))
+    }
+
     fn truth(&mut self, t: f64) -> (Q, V3, V3) {
         match self.traj.attitude {
             Attitude::Euler(p) => {
@@ -1048,16 +1059,7 @@ impl Iterator for Simulator {
         for i in 0..3 {
             accel[i] = (accel_clean[i] + self.accel_std * self.accel_rng.normal()) as f32;
         }
-        let mag = if s.mag {
-            let m = rotate_inverse(q, s.mag_field_ned);
-            let mut out = [0f32; 3];
-            for i in 0..3 {
-                out[i] = (m[i] + s.mag_noise_ut * self.mag_rng.normal()) as f32;
-            }
-            Some(out)
-        } else {
-            None
-        };
+        let mag = self.mag_sample(q);
         let row = TraceRow { t, gyro, accel, mag, depth: None, truth: Some(q.map(|c| c as f32)) };
         Some(SimSample {
             row,
@@ -1116,16 +1118,7 @@ impl Simulator {
                 + self.accel_std * self.accel_rng.normal();
             accel[i] = quantise(v, step, -fs_a, fs_a - step) as f32;
         }
-        let mag = if s.mag {
-            let m = rotate_inverse(q_s, s.mag_field_ned);
-            let mut out = [0f32; 3];
-            for i in 0..3 {
-                out[i] = (m[i] + s.mag_noise_ut * self.mag_rng.normal()) as f32;
-            }
-            Some(out)
-        } else {
-            None
-        };
+        let mag = self.mag_sample(q_s);
         r.advance();
         let repeat_draw = r.repeat_rng.uniform();
         let (gyro, accel, mag, repeated) = match r.prev {

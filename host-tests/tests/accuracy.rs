@@ -162,9 +162,8 @@ fn a_still_board_with_realistic_sensors_keeps_its_bias() {
             10.0,
             |r, e| {
                 if r.t >= 20.0 {
-                    for i in 0..3 {
-                        worst_bias =
-                            worst_bias.max((e.bias_dps[i] as f64 - GYRO_BIAS_DPS[i]).abs());
+                    for (b, t) in e.bias_dps.iter().zip(GYRO_BIAS_DPS) {
+                        worst_bias = worst_bias.max((*b as f64 - t).abs());
                     }
                     if r.t < 20.02 {
                         yaw.0 = e.euler_deg[2] as f64;
