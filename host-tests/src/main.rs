@@ -10,7 +10,7 @@ use ekf_core::conditioning::Conditioner;
 use ekf_core::lever_arm::LeverArm;
 use ekf_core::Vec3;
 use host_tests::config::{ConfigToml, ReplayConfig};
-use host_tests::output::{produce_atomically, write_atomically};
+use host_tests::output::{produce_atomically, refuse_overwriting_inputs, write_atomically};
 use host_tests::real::AttitudeScore;
 use host_tests::replay::{replay_serial_with, replay_with, FilterKind, ReplayError};
 use host_tests::sim::{Scenario, SimOptions};
@@ -18,11 +18,19 @@ use host_tests::trace::{
     read_estimate_file, read_trace_file, EstimateRow, TraceReader, TraceRow, TraceWriter,
 };
 
-/// `println!` that ignores a closed stdout (e.g. piped into `head`).
+/// The summary goes to stderr when the output file is stdout (`--out -`).
+static SUMMARY_TO_STDERR: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// `println!` that ignores a closed stdout (e.g. piped into `head`), or `eprintln!` when the
+/// data itself goes to stdout.
 macro_rules! say {
     ($($arg:tt)*) => {{
         use std::io::Write as _;
-        let _ = writeln!(std::io::stdout(), $($arg)*);
+        if SUMMARY_TO_STDERR.load(std::sync::atomic::Ordering::Relaxed) {
+            let _ = writeln!(std::io::stderr(), $($arg)*);
+        } else {
+            let _ = writeln!(std::io::stdout(), $($arg)*);
+        }
     }};
 }
 
@@ -219,6 +227,7 @@ fn run_replay(
     if no_init_bias {
         cfg.settings.init.estimate_gyro_bias = false;
     }
+    refuse_overwriting_inputs(out, &[trace]).map_err(|e| e.to_string())?;
     let file = std::fs::File::open(trace).map_err(|e| format!("{}: {e}", trace.display()))?;
     let reader = TraceReader::new(BufReader::with_capacity(1 << 16, file))
         .map_err(|e| format!("{}: {e}", trace.display()))?;
@@ -288,6 +297,7 @@ fn run_replay(
 }
 
 fn run_plot(trace: &Path, est: &Path, out: &Path) -> Result<(), String> {
+    refuse_overwriting_inputs(out, &[trace, est]).map_err(|e| e.to_string())?;
     let (_, rows) = read_trace_file(trace).map_err(|e| format!("{}: {e}", trace.display()))?;
     let est_rows = read_estimate_file(est).map_err(|e| format!("{}: {e}", est.display()))?;
     produce_atomically(out, |tmp| -> Result<(), PlotErr> {
@@ -337,6 +347,10 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     };
+    let (Cmd::Simulate { out, .. } | Cmd::Replay { out, .. } | Cmd::Plot { out, .. }) = &cli.cmd;
+    if out.as_os_str() == "-" {
+        SUMMARY_TO_STDERR.store(true, std::sync::atomic::Ordering::Relaxed);
+    }
     let result = match cli.cmd {
         Cmd::Simulate { scenario, out, rate, duration, seed, mag, realistic } => {
             simulate(scenario, &out, rate, duration, seed, mag, realistic)

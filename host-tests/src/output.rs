@@ -1,6 +1,9 @@
 //! All-or-nothing output files: write into a temporary file in the destination's directory and
 //! rename it over the destination only on success, so a failed run leaves no partial file
-//! (and an existing file untouched).
+//! (and an existing file untouched). `-` is standard output, and an existing destination that
+//! is not a regular file (`/dev/null`, `/dev/stdout`, a pipe) is written in place: nothing is
+//! renamed over it. [`refuse_overwriting_inputs`] keeps a command from writing over the files
+//! it reads.
 
 use std::fs::File;
 use std::io::{self, BufWriter, Write};
@@ -28,13 +31,75 @@ fn temp_in(path: &Path, suffix: &str) -> io::Result<tempfile::NamedTempFile> {
     Ok(tmp)
 }
 
+/// The same file as `a` (both exist and are one file: the same device and inode, whatever the
+/// path, `./x`, a symlink or a hard link).
+fn same_file(a: &Path, b: &Path) -> bool {
+    match (std::fs::metadata(a), std::fs::metadata(b)) {
+        #[cfg(unix)]
+        (Ok(ma), Ok(mb)) => {
+            use std::os::unix::fs::MetadataExt;
+            ma.dev() == mb.dev() && ma.ino() == mb.ino()
+        }
+        #[cfg(not(unix))]
+        (Ok(_), Ok(_)) => {
+            matches!((a.canonicalize(), b.canonicalize()), (Ok(x), Ok(y)) if x == y)
+        }
+        _ => false,
+    }
+}
+
+/// An error when the output `out` is one of the command's `inputs` (it would be replaced by
+/// the output: the input lost).
+pub fn refuse_overwriting_inputs(out: &Path, inputs: &[&Path]) -> io::Result<()> {
+    for i in inputs {
+        if out.as_os_str() != "-" && same_file(out, i) {
+            return Err(io::Error::new(
+                io::ErrorKind::InvalidInput,
+                format!(
+                    "{}: is the input {}; refusing to write over it",
+                    out.display(),
+                    i.display()
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Where `path` is written without a temporary file: standard output for `-`, or the existing
+/// non-regular file itself (a device, a pipe), opened for writing.
+fn direct(path: &Path) -> io::Result<Option<File>> {
+    if path.as_os_str() == "-" {
+        #[cfg(unix)]
+        {
+            use std::os::fd::AsFd;
+            return Ok(Some(File::from(io::stdout().as_fd().try_clone_to_owned()?)));
+        }
+        #[cfg(not(unix))]
+        return Err(io::Error::new(io::ErrorKind::Unsupported, "`-` (stdout) needs unix"));
+    }
+    match std::fs::metadata(path) {
+        Ok(m) if !m.is_file() && !m.is_dir() => {
+            Ok(Some(std::fs::OpenOptions::new().write(true).open(path)?))
+        }
+        _ => Ok(None),
+    }
+}
+
 /// Run `f` on a buffered writer to a temporary file next to `path`; on `Ok`, flush and rename
 /// it to `path`. On `Err` (from `f` or the final flush/rename) the temporary file is removed.
+/// `-` and existing non-regular files are written directly (see the module documentation).
 pub fn write_atomically<T, E, F>(path: &Path, f: F) -> Result<T, E>
 where
     E: From<io::Error>,
     F: FnOnce(&mut BufWriter<&File>) -> Result<T, E>,
 {
+    if let Some(file) = direct(path)? {
+        let mut w = BufWriter::with_capacity(1 << 16, &file);
+        let v = f(&mut w)?;
+        w.flush()?;
+        return Ok(v);
+    }
     let tmp = temp_in(path, ".tmp")?;
     let value = {
         let mut w = BufWriter::with_capacity(1 << 16, tmp.as_file());
@@ -86,5 +151,35 @@ mod tests {
         let r = write_atomically(&out, |_| -> io::Result<()> { Err(io::Error::other("x")) });
         assert!(r.is_err());
         assert_eq!(std::fs::read_to_string(&out).unwrap(), "hello\n");
+    }
+
+    #[test]
+    fn the_input_is_never_the_output() {
+        let dir = tempfile::tempdir().unwrap();
+        let input = dir.path().join("in.csv");
+        std::fs::write(&input, "t\n").unwrap();
+        // The same file by another path: ./, .., a symlink.
+        let other = dir.path().join(".").join("sub").join("..").join("in.csv");
+        std::fs::create_dir(dir.path().join("sub")).unwrap();
+        let link = dir.path().join("link.csv");
+        #[cfg(unix)]
+        std::os::unix::fs::symlink(&input, &link).unwrap();
+        for out in [&input, &other, &link] {
+            let e = refuse_overwriting_inputs(out, &[&input]).unwrap_err();
+            assert!(e.to_string().contains("refusing to write over it"), "{e}");
+        }
+        assert!(refuse_overwriting_inputs(&dir.path().join("new.csv"), &[&input]).is_ok());
+        assert!(refuse_overwriting_inputs(Path::new("-"), &[&input]).is_ok());
+        assert_eq!(std::fs::read_to_string(&input).unwrap(), "t\n");
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn devices_are_written_in_place() {
+        // /dev/null is written, not replaced (the old code tried to create /dev/.null.*.tmp).
+        write_atomically(Path::new("/dev/null"), |w| -> io::Result<()> { w.write_all(b"x") })
+            .unwrap();
+        let m = std::fs::metadata("/dev/null").unwrap();
+        assert!(!m.is_file());
     }
 }

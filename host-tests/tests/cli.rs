@@ -381,3 +381,32 @@ fn simulate_realistic_differs_and_the_plain_trace_is_unchanged() {
         }
     }
 }
+
+/// Issue #14: a replay never writes over its input (by any path to it), `--out -` writes the
+/// estimate to stdout with the summary on stderr, and a device such as `/dev/null` is written
+/// in place, not replaced.
+#[test]
+fn replay_outputs_never_replace_the_input_and_stdout_and_devices_work() {
+    let dir = tempfile::tempdir().unwrap();
+    let trace = simulate(dir.path(), "coupled", "5");
+    let before = std::fs::read(&trace).unwrap();
+    let dotted = dir.path().join(".").join(".").join(trace.file_name().unwrap());
+    for out in [&trace, &dotted] {
+        let o = run(&["replay", p(&trace), "--out", p(out)]);
+        assert!(!o.status.success());
+        assert!(stderr(&o).contains("refusing to write over it"), "{}", stderr(&o));
+    }
+    assert_eq!(std::fs::read(&trace).unwrap(), before, "the input changed");
+
+    let o = run(&["replay", p(&trace), "--out", "-"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let csv = stdout(&o);
+    assert!(csv.starts_with("t,qw,qx,qy,qz,roll,pitch,yaw"), "{csv}");
+    assert_eq!(csv.lines().count(), 251, "header and 250 rows");
+    assert!(stderr(&o).contains("replay: 250 rows"), "{}", stderr(&o));
+    assert!(!dir.path().join("-").exists());
+
+    let o = run(&["replay", p(&trace), "--out", "/dev/null"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(!std::fs::metadata("/dev/null").unwrap().is_file());
+}
