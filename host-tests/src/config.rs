@@ -239,7 +239,7 @@ pub struct ConfigToml {
 }
 
 fn axis_map(name: &str, m: AxisMapToml) -> Result<AxisMap, String> {
-    AxisMap::new(m.source, m.sign).map_err(|e| format!("conditioning.{name}: invalid ({e:?})"))
+    AxisMap::new(m.source, m.sign).map_err(|e| format!("conditioning.{name}: {e}"))
 }
 
 impl ConfigToml {
@@ -349,10 +349,11 @@ mod tests {
         assert!(e.contains("yaw_splt"), "{e}");
         assert!(parse_config("[ekff]\n").is_err());
         assert!(parse_config("[ekf]\naccel_var_scale = \"x\"\n").is_err());
-        assert!(parse_config(
-            "[conditioning]\ngyro_axes = { source = [0, 0, 2], sign = [1, 1, 1] }"
-        )
-        .is_err());
+        let e =
+            parse_config("[conditioning]\ngyro_axes = { source = [0, 0, 2], sign = [1, 1, 1] }")
+                .unwrap_err();
+        // Said in words, not as a Rust value (issue #14).
+        assert_eq!(e, "conditioning.gyro_axes: axis map: raw axis 0 is used more than once");
         assert!(!parse_config("[ekf]\nyaw_splt = true\n").unwrap_err().contains('\n'));
     }
 }

@@ -191,7 +191,7 @@ impl fmt::Display for TraceError {
                 write!(f, "line {line}, column '{column}': not a number: {text:?}")
             }
             TraceError::NotFinite { line, column, text } => {
-                write!(f, "line {line}, column '{column}': not finite: {text:?}")
+                write!(f, "line {line}, column '{column}': not finite or beyond the f32 range (±3.4e38): {text:?}")
             }
             TraceError::PartialGroup { line, column } => write!(
                 f,
@@ -260,8 +260,12 @@ impl<R: BufRead> CsvReader<R> {
             .map_err(|_| TraceError::InvalidUtf8 { line: r.line })?
             .to_owned();
         r.header_line = r.line;
-        for (s, e) in &r.cells {
-            let name = text[*s..*e].to_owned();
+        for (k, (s, e)) in r.cells.iter().enumerate() {
+            // A UTF-8 byte-order mark before the first name (Excel's "CSV UTF-8") is not part
+            // of it.
+            let cell = &text[*s..*e];
+            let cell = if k == 0 { cell.trim_start_matches('\u{feff}').trim_start() } else { cell };
+            let name = cell.to_owned();
             if r.header.contains(&name) {
                 return Err(TraceError::DuplicateColumn { line: r.line, column: name });
             }

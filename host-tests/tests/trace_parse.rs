@@ -63,3 +63,16 @@ fn estimate_files_need_their_columns() {
     assert!(rows[0].bias_dps[0].is_nan());
     assert_eq!(rows[0].flags, 0);
 }
+
+/// Issue #14: a UTF-8 byte-order mark (Excel's "CSV UTF-8") before the header is not part of
+/// the first column's name; a number beyond the f32 range says so.
+#[test]
+fn a_byte_order_mark_is_not_part_of_the_first_name() {
+    let (_d, path) = write("\u{feff}t,gx,gy,gz,ax,ay,az\n0,0,0,0,0,0,-9.8\n0.02,0,0,0,0,0,-9.8\n");
+    let (_, rows) = read_trace_file(&path).unwrap();
+    assert_eq!(rows.len(), 2);
+    assert_eq!(rows[1].t, 0.02);
+    let (_d, path) = write("t,gx,gy,gz,ax,ay,az\n0,0,0,0,0,0,1e300\n");
+    let e = read_trace_file(&path).unwrap_err().to_string();
+    assert!(e.contains("line 2") && e.contains("'az'") && e.contains("f32 range"), "{e}");
+}
