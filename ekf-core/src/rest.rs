@@ -362,4 +362,28 @@ mod tests {
             }
         }
     }
+
+    /// A gyro that oscillates with zero mean (±1.5 °/s on x, 2.6× the board's per-sample noise;
+    /// a rocking the accelerometer does not see) while the accelerometer is still: only the
+    /// gyro-variance test can call that motion. The same block with the noise alone is rest.
+    #[test]
+    fn a_zero_mean_gyro_oscillation_is_not_rest() {
+        let noise = NoiseSettings::default();
+        let still = Vec3::new(0.0, 0.0, -1.0);
+        let mut d = RestDetector::new(RestSettings::default());
+        let mut blocks = 0;
+        for k in 0..500 {
+            let w = Vec3::new(if k % 2 == 0 { deg(1.5) } else { deg(-1.5) }, 0.0, 0.0);
+            if let Some(b) = d.push(0.02, Some(w), Some(still), &noise) {
+                // The block mean is (nearly: an odd sample count) zero, far inside the mean-rate
+                // test's 0.2 °/s.
+                assert!(b.mean_rate.max_abs() < deg(0.05), "{:?}", b.mean_rate);
+                assert!(!b.still);
+                blocks += 1;
+            }
+        }
+        assert!(blocks >= 4, "{blocks}");
+        let (blocks, rest) = run(Vec3::ZERO, 10.0);
+        assert!(blocks >= 4 && rest >= 3, "{blocks} {rest}");
+    }
 }

@@ -57,6 +57,13 @@ fn ekf_meets_the_goals_on_scenarios_1_to_6() {
 fn ekf_holds_yaw_for_an_hour() {
     // One hour still with the bias right, and with the configured z bias 0.05 °/s off.
     check(&[Scenario::StillHour, Scenario::BiasOff]);
+    // The goals (≤ 1°) would pass without the yaw hold at rest (0.19° then: issue #17); what
+    // it achieves, 0.004°, is held here at 0.02°.
+    for s in [Scenario::StillHour, Scenario::BiasOff] {
+        let r = run(s, SEED, FilterKind::Ekf);
+        let e = r.final_yaw_err_deg.abs();
+        assert!(e < 0.02, "{}: final yaw error {e:.4}° (the yaw hold)", s.name());
+    }
 }
 
 /// Mean (inclination, heading) RMSE of the EKF over the 6 RepoIMU recordings with `cfg`.
