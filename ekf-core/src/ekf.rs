@@ -10,7 +10,7 @@
 //! See `docs/filter.md` for the equations and the operation count.
 
 use crate::{
-    covariance::{Cov6, ProcessNoise, YawRow},
+    covariance::{Cov6, ProcessNoise, TiltInnovation, YawRow},
     fcmp,
     filter::AttitudeFilter,
     gate::{AccelGate, PreCheck},
@@ -304,7 +304,8 @@ impl Ekf {
             self.p.inflate(0, e);
             self.p.inflate(1, e);
             match self.p.tilt_innovation(z, var) {
-                Some(t2) => t = t2,
+                // The bias learns from the reacquired sample as from any other.
+                Some(t2) => t = TiltInnovation { bias_gain: t.bias_gain, ..t2 },
                 None => return Flags::HEALTH_RESET,
             }
         }

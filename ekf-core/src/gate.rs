@@ -103,7 +103,8 @@ impl AccelGate {
             self.accepted();
             return Ok(Flags::REACQUIRE);
         }
-        if nis.is_finite() && fcmp::le(nis, self.settings.innovation_chi2) {
+        let off = fcmp::ge(self.settings.innovation_chi2, INNOVATION_GATE_OFF);
+        if off || (nis.is_finite() && fcmp::le(nis, self.settings.innovation_chi2)) {
             self.accepted();
             Ok(Flags::NONE)
         } else {
@@ -138,6 +139,15 @@ mod tests {
     const DT: f32 = 0.02;
     fn level() -> Vec3 {
         Vec3::new(0.0, 0.0, -1.0)
+    }
+
+    #[test]
+    fn the_innovation_test_is_off_by_default() {
+        let mut g = AccelGate::new(GateSettings::default());
+        assert_eq!(g.innovation(DT, 1e9, false), Ok(Flags::NONE));
+        let mut g = AccelGate::new(GateSettings::SOURCE);
+        assert!(g.innovation(DT, 17.0, false).is_err());
+        assert_eq!(g.innovation(DT, 15.0, false), Ok(Flags::NONE));
     }
 
     #[test]

@@ -73,6 +73,37 @@ struct Sums {
     gyro_n: u32,
 }
 
+/// Per-axis mean and variance of `n` samples from their sum and sum of squares.
+fn mean_var(sum: Vec3, sq: Vec3, n: u32) -> ([f32; 3], [f32; 3]) {
+    let k = 1.0 / n.max(1) as f32;
+    let mean = (sum * k).to_array();
+    let sq = sq.to_array();
+    (mean, [0, 1, 2].map(|i| sq[i] * k - mean[i] * mean[i]))
+}
+
+impl Sums {
+    /// The samples after `earlier` (a checkpoint of the same window).
+    fn since(&self, earlier: &Sums) -> Sums {
+        Sums {
+            elapsed: self.elapsed - earlier.elapsed,
+            acc_sum: self.acc_sum - earlier.acc_sum,
+            acc_sq: self.acc_sq - earlier.acc_sq,
+            acc_n: self.acc_n - earlier.acc_n,
+            gyro_sum: self.gyro_sum - earlier.gyro_sum,
+            gyro_sq: self.gyro_sq - earlier.gyro_sq,
+            gyro_n: self.gyro_n - earlier.gyro_n,
+        }
+    }
+
+    fn gyro(&self) -> ([f32; 3], [f32; 3]) {
+        mean_var(self.gyro_sum, self.gyro_sq, self.gyro_n)
+    }
+
+    fn accel(&self) -> ([f32; 3], [f32; 3]) {
+        mean_var(self.acc_sum, self.acc_sq, self.acc_n)
+    }
+}
+
 /// Accumulates the initialisation window.
 #[derive(Clone, Copy, Debug)]
 pub struct Initializer {
@@ -127,16 +158,11 @@ impl Initializer {
     /// The accelerometer's variance over the window so far, summed over the axes, g² (0 before
     /// two samples): the motion level the filter starts from.
     pub fn motion_level(&self) -> f32 {
-        if let Some(l) = self.level {
-            return l;
+        match self.level {
+            Some(l) => l,
+            None if self.s.acc_n < 2 => 0.0,
+            None => self.s.accel().1.iter().map(|v| v.max(0.0)).sum(),
         }
-        if self.s.acc_n < 2 {
-            return 0.0;
-        }
-        let k = 1.0 / self.s.acc_n as f32;
-        let m = (self.s.acc_sum * k).to_array();
-        let sq = self.s.acc_sq.to_array();
-        (0..3).map(|i| (sq[i] * k - m[i] * m[i]).max(0.0)).sum()
     }
 
     /// The stillness test of [`Initializer::new`] on the samples so far.
@@ -144,42 +170,33 @@ impl Initializer {
         if self.s.gyro_n < MIN_CHECK_SAMPLES || !(self.s.elapsed >= MIN_CHECK_S) {
             return false;
         }
-        let n = self.s.gyro_n as f32;
-        let mean = (self.s.gyro_sum * (1.0 / n)).to_array();
         // Per-sample noise scales with the sample rate (constant noise density).
-        let var_max = (self.gyro_var_max * (n / self.s.elapsed / self.gyro_ref_rate_hz)).to_array();
-        let sq = self.s.gyro_sq.to_array();
+        let rate = self.s.gyro_n as f32 / self.s.elapsed;
+        let var_max = (self.gyro_var_max * (rate / self.gyro_ref_rate_hz)).to_array();
         let configured = self.settings.gyro_bias.to_array();
         let off_max = 3.0 * self.settings.moving_bias_sigma;
-        for (((m, v), s), c) in mean.iter().zip(var_max).zip(sq).zip(configured) {
-            let var = s / n - m * m;
-            if !(var <= v) || !(mathf::abs(m - c) <= off_max) {
+        let (mean, var) = self.s.gyro();
+        for i in 0..3 {
+            if !(var[i] <= var_max[i]) || !(mathf::abs(mean[i] - configured[i]) <= off_max) {
                 return true;
             }
         }
-        if self.s.acc_n >= MIN_CHECK_SAMPLES {
-            let k = 1.0 / self.s.acc_n as f32;
-            let am = (self.s.acc_sum * k).to_array();
-            for (m, s) in am.iter().zip(self.s.acc_sq.to_array()) {
-                if !(s * k - m * m <= self.accel_var_max) {
-                    return true;
-                }
-            }
+        if self.s.acc_n >= MIN_CHECK_SAMPLES
+            && self.s.accel().1.iter().any(|v| !(*v <= self.accel_var_max))
+        {
+            return true;
         }
         // Motion that begins after a still part: the samples since the last checkpoint against
         // those before it — a spread, or a mean rate 3 standard errors away.
         let cp = self.checkpoint;
-        let ns = self.s.gyro_n - cp.gyro_n;
-        if cp.gyro_n >= MIN_CHECK_SAMPLES && ns >= MIN_CHECK_SAMPLES {
-            let (ns, nc) = (ns as f32, cp.gyro_n as f32);
-            let seg_mean = ((self.s.gyro_sum - cp.gyro_sum) * (1.0 / ns)).to_array();
-            let seg_sq = (self.s.gyro_sq - cp.gyro_sq).to_array();
-            let cp_mean = (cp.gyro_sum * (1.0 / nc)).to_array();
-            let k = 1.0 / ns + 1.0 / nc;
+        let seg = self.s.since(&cp);
+        if cp.gyro_n >= MIN_CHECK_SAMPLES && seg.gyro_n >= MIN_CHECK_SAMPLES {
+            let (seg_mean, seg_var) = seg.gyro();
+            let (cp_mean, _) = cp.gyro();
+            let k = 1.0 / seg.gyro_n as f32 + 1.0 / cp.gyro_n as f32;
             for i in 0..3 {
-                let var = seg_sq[i] / ns - seg_mean[i] * seg_mean[i];
                 let d = seg_mean[i] - cp_mean[i];
-                if !(var <= var_max[i]) || !(d * d <= 9.0 * var_max[i] * k) {
+                if !(seg_var[i] <= var_max[i]) || !(d * d <= 9.0 * var_max[i] * k) {
                     return true;
                 }
             }

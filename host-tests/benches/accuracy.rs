@@ -32,7 +32,6 @@ use host_tests::accuracy::{
     source_rmse, source_time_per_cycle, thread_cpu_s, RunResult, GOALS, HOUR_SCENARIOS, RATE_HZ,
     ROBUST_GOALS, ROBUST_SCENARIOS, TABLE16_SCENARIOS,
 };
-use host_tests::config::ReplayConfig;
 use host_tests::real::{score, RepoImu, ScoreRmse};
 use host_tests::replay::FilterKind;
 use host_tests::sim::{Scenario, SimOptions};
@@ -97,24 +96,16 @@ fn run_all(scenarios: &[Scenario], seeds: u64, threads: usize) -> Results {
             jobs.extend((1..=seeds).map(|seed| (si, seed)));
         }
     }
-    let next = AtomicUsize::new(0);
-    let out: Mutex<Vec<(usize, u64, usize, RunResult)>> = Mutex::new(Vec::new());
-    std::thread::scope(|scope| {
-        for _ in 0..threads {
-            scope.spawn(|| loop {
-                let j = next.fetch_add(1, Ordering::Relaxed);
-                let Some(&(si, seed)) = jobs.get(j) else { return };
-                let scenario = scenarios[si];
-                let rows = simulate(scenario, None, seed);
-                let cfg = replay_config(scenario);
-                for (fi, &f) in FilterKind::ALL.iter().enumerate() {
-                    let r = evaluate(&rows, f, &cfg);
-                    out.lock().unwrap().push((si, seed, fi, r));
-                }
-            });
-        }
+    let per_job = pool(&jobs, threads, |&(si, seed)| {
+        let scenario = scenarios[si];
+        let rows = simulate(scenario, None, seed);
+        let cfg = replay_config(scenario);
+        FilterKind::ALL.map(|f| evaluate(&rows, f, &cfg))
     });
-    let mut all = out.into_inner().unwrap();
+    let mut all: Vec<(usize, u64, usize, RunResult)> = Vec::new();
+    for (&(si, seed), rs) in jobs.iter().zip(per_job) {
+        all.extend(rs.into_iter().enumerate().map(|(fi, r)| (si, seed, fi, r)));
+    }
     all.sort_by_key(|&(si, seed, fi, _)| (si, fi, seed));
     let mut res = Results::new();
     for (si, _, fi, r) in all {
@@ -123,8 +114,7 @@ fn run_all(scenarios: &[Scenario], seeds: u64, threads: usize) -> Results {
     res
 }
 
-/// `f` on every job on `threads` worker threads (the pattern of [`run_all`]: a shared job
-/// counter); results in job order.
+/// `f` on every job on `threads` worker threads sharing a job counter; results in job order.
 fn pool<J: Sync, R: Send>(jobs: &[J], threads: usize, f: impl Fn(&J) -> R + Sync) -> Vec<R> {
     let next = AtomicUsize::new(0);
     let out: Mutex<Vec<(usize, R)>> = Mutex::new(Vec::new());
@@ -143,15 +133,8 @@ fn pool<J: Sync, R: Send>(jobs: &[J], threads: usize, f: impl Fn(&J) -> R + Sync
     all.into_iter().map(|(_, r)| r).collect()
 }
 
-/// The `replay --foreign` configuration: no lever arm and the configured gyro bias zero.
-fn foreign_config() -> ReplayConfig {
-    let mut cfg = RepoImu::config();
-    cfg.settings.init.gyro_bias = Vec3::ZERO;
-    cfg
-}
-
 /// Scores on the RepoIMU files: per filter (in [`FilterKind::ALL`] order) and then the EKF
-/// with [`foreign_config`], one per file.
+/// with `real::foreign_config` (`replay --foreign`), one per file.
 struct RealResults {
     files: Vec<(String, usize)>,
     per_filter: Vec<Vec<ScoreRmse>>,
@@ -167,7 +150,7 @@ fn run_real(threads: usize) -> Result<RealResults, String> {
         jobs.extend((0..files.len()).map(|i| (f, false, i)));
     }
     jobs.extend((0..files.len()).map(|i| (FilterKind::Ekf, true, i)));
-    let (plain, foreign) = (RepoImu::config(), foreign_config());
+    let (plain, foreign) = (RepoImu::config(), host_tests::real::foreign_config());
     let scores = pool(&jobs, threads, |&(f, fo, i)| {
         score(&files[i].1, f, if fo { &foreign } else { &plain }).expect("rows with truth")
     });

@@ -1,26 +1,45 @@
-//! Score filters on the RepoIMU recordings (development aid): `cargo run --release -p host-tests
-//! --example repoimu -- [filter] [config.toml]`.
-use host_tests::config::parse_config;
+//! Score one filter's settings on the 6 RepoIMU recordings, per file and mean (inclination and
+//! heading RMSE, `host_tests::real`): `cargo run --release -p host-tests --example repoimu --
+//! [ekf|ukf|ssukf|cf|gyro] [settings.toml]`. The settings apply on top of `RepoImu::config()`
+//! (the defaults with no lever arm), as `replay --config` does on top of the defaults. The data
+//! folder is `$REPOIMU_DIR`, else `../shared/data/repoimu`.
+use std::process::ExitCode;
+
+use host_tests::config::apply_config;
 use host_tests::real::{score, RepoImu};
 use host_tests::replay::FilterKind;
 
-fn main() {
+fn run() -> Result<(), String> {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let filter = args.first().and_then(|s| FilterKind::from_name(s)).unwrap_or(FilterKind::Ekf);
+    let filter = match args.first() {
+        Some(s) => FilterKind::from_name(s)
+            .ok_or_else(|| format!("unknown filter {s:?} (ekf, ukf, ssukf, cf, gyro)"))?,
+        None => FilterKind::Ekf,
+    };
     let mut cfg = RepoImu::config();
     if let Some(p) = args.get(1) {
-        let lever = cfg.conditioning.lever_arm;
-        cfg = parse_config(&std::fs::read_to_string(p).unwrap()).unwrap();
-        cfg.conditioning.lever_arm = lever;
+        let text = std::fs::read_to_string(p).map_err(|e| format!("{p}: {e}"))?;
+        apply_config(&text, &mut cfg).map_err(|e| format!("{p}: {e}"))?;
     }
-    let files = RepoImu::load(&RepoImu::dir()).unwrap();
+    let files = RepoImu::load(&RepoImu::dir())?;
     let (mut si, mut sh) = (0.0, 0.0);
     for (name, rows) in &files {
-        let r = score(rows, filter, &cfg).unwrap();
+        let r = score(rows, filter, &cfg).ok_or_else(|| format!("{name}: no rows with truth"))?;
         println!("{name:40} incl {:6.2} heading {:6.2}", r.inclination_deg, r.heading_deg);
         si += r.inclination_deg;
         sh += r.heading_deg;
     }
     let n = files.len() as f64;
     println!("mean {:34} incl {:6.2} heading {:6.2}", filter.name(), si / n, sh / n);
+    Ok(())
+}
+
+fn main() -> ExitCode {
+    match run() {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
 }

@@ -303,13 +303,19 @@ impl ConfigToml {
 
 /// Parse a TOML text and apply it on top of the defaults.
 pub fn parse_config(text: &str) -> Result<ReplayConfig, String> {
+    let mut cfg = ReplayConfig::default();
+    apply_config(text, &mut cfg)?;
+    Ok(cfg)
+}
+
+/// Apply the TOML `text` on top of `cfg` (`replay --foreign --config`: on top of the foreign
+/// configuration instead of the defaults).
+pub fn apply_config(text: &str, cfg: &mut ReplayConfig) -> Result<(), String> {
     let file: ConfigToml = toml::from_str(text).map_err(|e| {
         // toml's message spans several lines (with a caret under the error): keep one.
         e.to_string().lines().filter(|l| !l.trim().is_empty()).collect::<Vec<_>>().join(" ")
     })?;
-    let mut cfg = ReplayConfig::default();
-    file.apply(&mut cfg)?;
-    Ok(cfg)
+    file.apply(cfg)
 }
 
 #[cfg(test)]

@@ -7,9 +7,8 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 use ekf_core::conditioning::Conditioner;
-use ekf_core::lever_arm::LeverArm;
 use ekf_core::Vec3;
-use host_tests::config::{ConfigToml, ReplayConfig};
+use host_tests::config::{apply_config, ReplayConfig};
 use host_tests::output::{produce_atomically, refuse_overwriting_inputs, write_atomically};
 use host_tests::real::AttitudeScore;
 use host_tests::replay::{replay_serial_with, replay_with, FilterKind, ReplayError};
@@ -182,10 +181,9 @@ fn vec3(v: Vec3, scale: f32) -> String {
 /// The `--foreign` configuration: the defaults without the Seahog specifics (lever arm, the
 /// iNEMO's gyro bias), and the line that says what changed.
 fn foreign_config(then_config: bool) -> (ReplayConfig, String) {
-    let mut cfg = ReplayConfig::default();
-    let (arm, bias) = (cfg.conditioning.lever_arm.r, cfg.settings.init.gyro_bias);
-    cfg.conditioning.lever_arm = LeverArm::NONE;
-    cfg.settings.init.gyro_bias = Vec3::ZERO;
+    let d = ReplayConfig::default();
+    let (arm, bias) = (d.conditioning.lever_arm.r, d.settings.init.gyro_bias);
+    let cfg = host_tests::real::foreign_config();
     let line = format!(
         "foreign: lever_arm.r {} m -> {} (LeverArm::NONE), init.gyro_bias {} deg/s -> {}; \
          the rest default{}",
@@ -196,15 +194,6 @@ fn foreign_config(then_config: bool) -> (ReplayConfig, String) {
         if then_config { ", then --config on top" } else { "" },
     );
     (cfg, line)
-}
-
-/// Apply the TOML `text` on top of `cfg` (as `parse_config` does on top of the defaults).
-fn apply_config(text: &str, cfg: &mut ReplayConfig) -> Result<(), String> {
-    let file: ConfigToml = toml::from_str(text).map_err(|e| {
-        // toml's message spans several lines (with a caret under the error): keep one.
-        e.to_string().lines().filter(|l| !l.trim().is_empty()).collect::<Vec<_>>().join(" ")
-    })?;
-    file.apply(cfg)
 }
 
 fn run_replay(

@@ -109,7 +109,7 @@ pub fn score(rows: &[TraceRow], filter: FilterKind, cfg: &ReplayConfig) -> Optio
     acc.rmse()
 }
 
-/// One recording of the RepoIMU set with VQF's published figure beside it.
+/// The 6 RepoIMU recordings of `shared/data/repoimu`, with VQF's published figures.
 pub struct RepoImu;
 
 impl RepoImu {
@@ -157,6 +157,14 @@ impl RepoImu {
         cfg.conditioning.lever_arm = ekf_core::lever_arm::LeverArm::NONE;
         cfg
     }
+}
+
+/// `replay --foreign`: [`RepoImu::config`] and also the configured gyro bias zero (the
+/// default, `init.gyro_bias`, is the iNEMO board's own).
+pub fn foreign_config() -> ReplayConfig {
+    let mut cfg = RepoImu::config();
+    cfg.settings.init.gyro_bias = ekf_core::Vec3::ZERO;
+    cfg
 }
 
 #[cfg(test)]

@@ -595,7 +595,7 @@ fn realism_is_off_by_default_and_off_values_change_nothing() {
 }
 
 #[test]
-fn realism_default_values_are_the_datasheet_figures() {
+fn realism_quantisation_is_the_datasheet_figures() {
     let r = Realism::INEMO;
     // 3.3 V / 4096 = 0.80566 mV per ADC step; / 3.33 mV/(°/s) = 0.24194 °/s; / 3.752 mV/(°/s)
     // = 0.21473 °/s.
@@ -603,13 +603,6 @@ fn realism_default_values_are_the_datasheet_figures() {
     assert!((r.gyro_lsb_dps[2] - 0.214_73).abs() < 1e-5);
     // LSM303DLH at ±2 g: 12 bits at 1 mg/digit, −2048 … 2047 mg.
     assert_eq!((r.accel_lsb_g, r.accel_full_scale_g, r.gyro_full_scale_dps), (0.001, 2.048, 300.0));
-    assert_eq!((r.jitter_s, r.repeat_fraction), (1e-3, 0.02));
-    assert_eq!((r.vibration_accel_g, r.vibration_band_hz), (0.02, [20.0, 40.0]));
-    assert_eq!(
-        (r.gyro_scale, r.gyro_cross_axis, r.accel_bias_g, r.accel_scale),
-        // The accelerometer's after the six-position calibration the board runs with.
-        (0.02, 0.01, 0.003, 0.003)
-    );
 }
 
 #[test]

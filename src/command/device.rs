@@ -337,13 +337,13 @@ impl Device {
                     return Err(Reason::Args.into());
                 }
                 let setting = registry::find(setting_name).ok_or(Reason::UnknownSetting)?;
-                self.set_values(name, Some(setting.name()), &[(setting.name(), value)])
+                self.set_values(name, Some(setting.name), &[(setting.name, value)])
             }
             Verb::Get => {
                 nargs(1)?;
                 let setting = registry::find(arg(0)).ok_or(Reason::UnknownSetting)?;
                 let mut out = Out::ok(name);
-                out.field(setting.name());
+                out.field(setting.name);
                 out.value(setting, &setting.get(&self.settings));
                 Ok((out, None))
             }
@@ -357,7 +357,7 @@ impl Device {
                 let mut out = Out::ok(name);
                 out.uint(u64::from(i));
                 out.uint(SETTINGS.len() as u64);
-                out.field(setting.name());
+                out.field(setting.name);
                 out.field(setting.kind.name());
                 out.field(setting.unit());
                 Ok((out, None))

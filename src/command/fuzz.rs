@@ -120,10 +120,10 @@ fn corpus() -> Vec<String> {
     .collect();
     let d = crate::pipeline::PipelineSettings::default();
     for s in &SETTINGS {
-        c.push(format!("PINAC,GET,{}", s.name()));
+        c.push(format!("PINAC,GET,{}", s.name));
         let mut v = crate::nmea::Sentence::new();
         s.write_value(&s.get(&d), &mut v).unwrap();
-        c.push(format!("PINAC,SET,{},{}", s.name(), v.body()));
+        c.push(format!("PINAC,SET,{},{}", s.name, v.body()));
     }
     c
 }
@@ -243,7 +243,7 @@ fn check_reply(s: &crate::nmea::Sentence) -> bool {
 
 fn settings_in_range(d: &Device) {
     for s in &SETTINGS {
-        assert!(s.check(&s.get(d.settings())), "{} out of range", s.name());
+        assert!(s.check(&s.get(d.settings())), "{} out of range", s.name);
     }
 }
 

@@ -119,13 +119,13 @@ fn get_and_set_every_setting() {
     let mut d = fresh();
     let mut f = SimFlash::new();
     for s in &SETTINGS {
-        let (r, _) = run(&mut d, &mut f, &format!("PINAC,GET,{}", s.name()));
-        let prefix = format!("PINAR,OK,GET,{},", s.name());
+        let (r, _) = run(&mut d, &mut f, &format!("PINAC,GET,{}", s.name));
+        let prefix = format!("PINAR,OK,GET,{},", s.name);
         assert!(r.starts_with(&prefix), "{r}");
         let value = &r[prefix.len()..];
         // Setting the value read changes nothing.
-        let (r2, a) = run(&mut d, &mut f, &format!("PINAC,SET,{},{}", s.name(), value));
-        assert_eq!(r2, format!("PINAR,OK,SET,{},{}", s.name(), value));
+        let (r2, a) = run(&mut d, &mut f, &format!("PINAC,SET,{},{}", s.name, value));
+        assert_eq!(r2, format!("PINAR,OK,SET,{},{}", s.name, value));
         assert!(
             a.is_none()
                 || !matches!(
@@ -133,7 +133,7 @@ fn get_and_set_every_setting() {
                     registry::Kind::Bool | registry::Kind::U16 | registry::Kind::Axes
                 ),
             "{}",
-            s.name()
+            s.name
         );
     }
     let (r, a) = run(&mut d, &mut f, "PINAC,SET,gate.norm_tolerance,0.1");

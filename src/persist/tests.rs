@@ -323,7 +323,7 @@ fn registry_values_survive_a_save_exactly() {
             ),
             other => other,
         };
-        assert!(e.set(&mut s, v), "{}", e.name());
+        assert!(e.set(&mut s, v), "{}", e.name);
     }
     let mut f = SimFlash::new();
     save(&mut f, &s).unwrap();

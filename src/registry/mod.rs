@@ -116,8 +116,8 @@ pub struct Setting {
     /// Stable identifier used in flash records. Never reused for another meaning: a removed
     /// setting's id stays retired.
     pub id: u16,
-    /// Dotted name used by `GET`/`SET` ([`Setting::name`]).
-    name: &'static str,
+    /// Dotted name used by `GET`/`SET` (lowercase; matched case-insensitively).
+    pub name: &'static str,
     /// Value type.
     pub kind: Kind,
     /// Unit as shown to the operator ([`Setting::unit`]): its index in [`UNITS`] (one byte
@@ -136,7 +136,7 @@ pub struct Setting {
 
 impl core::fmt::Debug for Setting {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        f.debug_struct("Setting").field("id", &self.id).field("name", &self.name()).finish()
+        f.debug_struct("Setting").field("id", &self.id).field("name", &self.name).finish()
     }
 }
 
@@ -250,11 +250,6 @@ impl Setting {
     /// [`Setting::scale`], exactly.
     pub fn scale_ext(&self) -> Ext {
         self.scale.ext()
-    }
-
-    /// Dotted name used by `GET`/`SET` (lowercase; matched case-insensitively).
-    pub fn name(&self) -> &'static str {
-        self.name
     }
 
     /// Unit as shown to the operator, ASCII (empty: dimensionless or not a number).
@@ -493,7 +488,7 @@ impl Setting {
         write!(
             out,
             "| `{}` | {} | {} | {} | {} | `{}` | {} |",
-            self.name(),
+            self.name,
             self.kind.name(),
             self.unit(),
             ascii(&lo, nl),
@@ -566,7 +561,7 @@ pub fn same(a: &PipelineSettings, b: &PipelineSettings, part: Option<Part>) -> b
 
 /// The setting called `name` (ASCII case-insensitive).
 pub fn find(name: &str) -> Option<&'static Setting> {
-    SETTINGS.iter().find(|s| s.name().eq_ignore_ascii_case(name))
+    SETTINGS.iter().find(|s| s.name.eq_ignore_ascii_case(name))
 }
 
 /// The setting with flash id `id`.

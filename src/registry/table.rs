@@ -121,9 +121,9 @@ pub(super) fn after_write(s: &mut PipelineSettings, id: u16) {
 /// The table from its rows: [`SETTINGS`], the help texts (only the documentation uses them, so
 /// they are not in the firmware) and the accessor [`slot`].
 macro_rules! settings_table {
-    ($($kind:ident!($id:literal, $name:literal, $($row:tt)*)),* $(,)?) => {
+    ($($kind:ident!($id:literal, $($row:tt)*)),* $(,)?) => {
         /// Every setting, in documentation order.
-        pub static SETTINGS: [Setting; [$($id),*].len()] = [$($kind!($id, $name, $($row)*)),*];
+        pub static SETTINGS: [Setting; [$($id),*].len()] = [$($kind!($id, $($row)*)),*];
 
         /// `(id, help)` of every setting, in the order of [`SETTINGS`].
         pub(super) static HELP: [(u16, &str); SETTINGS.len()] = [$(($id, help_of!($($row)*))),*];

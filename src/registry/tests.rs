@@ -10,22 +10,22 @@ fn text(setting: &Setting, v: &Value) -> String {
 #[test]
 fn ids_and_names_are_unique_and_wire_safe() {
     for (i, a) in SETTINGS.iter().enumerate() {
-        assert!(!a.name().is_empty() && a.name().len() <= 24, "{}", a.name());
+        assert!(!a.name.is_empty() && a.name.len() <= 24, "{}", a.name);
         assert!(
-            a.name()
+            a.name
                 .bytes()
                 .all(|b| b.is_ascii_lowercase() || b.is_ascii_digit() || b == b'.' || b == b'_'),
             "{}",
-            a.name()
+            a.name
         );
         assert!(a.unit().is_ascii() && !a.unit().contains('|'));
         for b in SETTINGS.iter().skip(i + 1) {
-            assert_ne!(a.id, b.id, "{} / {}", a.name(), b.name());
-            assert!(!a.name().eq_ignore_ascii_case(b.name()));
+            assert_ne!(a.id, b.id, "{} / {}", a.name, b.name);
+            assert!(!a.name.eq_ignore_ascii_case(b.name));
         }
-        assert_eq!(find(a.name()).map(|s| s.id), Some(a.id));
-        assert_eq!(find(&a.name().to_ascii_uppercase()).map(|s| s.id), Some(a.id));
-        assert_eq!(by_id(a.id).map(|s| s.name()), Some(a.name()));
+        assert_eq!(find(a.name).map(|s| s.id), Some(a.id));
+        assert_eq!(find(&a.name.to_ascii_uppercase()).map(|s| s.id), Some(a.id));
+        assert_eq!(by_id(a.id).map(|s| s.name), Some(a.name));
         assert!(a.min <= a.max);
         assert!(a.scale.factor() > 0.0);
     }
@@ -37,21 +37,21 @@ fn defaults_are_valid_and_survive_encode_decode_and_text() {
     let d = PipelineSettings::default();
     for s in &SETTINGS {
         let v = s.get(&d);
-        assert_eq!(v.kind(), s.kind, "{}", s.name());
-        assert!(s.check(&v), "{} default {:?} out of range", s.name(), v);
+        assert_eq!(v.kind(), s.kind, "{}", s.name);
+        assert!(s.check(&v), "{} default {:?} out of range", s.name, v);
         let mut buf = [0u8; 16];
         let n = s.encode(&v, &mut buf);
         assert!(n > 0);
-        assert_eq!(s.decode(&buf[..n]), Some(v), "{}", s.name());
+        assert_eq!(s.decode(&buf[..n]), Some(v), "{}", s.name);
         // Printed and parsed back: the same text again, and the value within 1e-6.
         let t = text(s, &v);
         let fields: Vec<&str> = t.split(',').collect();
-        let back = s.parse(&fields).unwrap_or_else(|e| panic!("{} {t}: {e:?}", s.name()));
-        assert_eq!(text(s, &back), t, "{}", s.name());
+        let back = s.parse(&fields).unwrap_or_else(|e| panic!("{} {t}: {e:?}", s.name));
+        assert_eq!(text(s, &back), t, "{}", s.name);
         let mut e = d;
         assert!(s.set(&mut e, back));
         if let (Value::F32(a), Value::F32(b)) = (v, back) {
-            assert!((a - b).abs() <= 1e-6 * a.abs().max(1e-30), "{} {a} {b}", s.name());
+            assert!((a - b).abs() <= 1e-6 * a.abs().max(1e-30), "{} {a} {b}", s.name);
         }
     }
 }
@@ -80,12 +80,12 @@ fn every_setting_is_independent_of_the_others() {
             }
         };
         let mut e = d;
-        assert!(s.set(&mut e, v), "{}", s.name());
-        assert_eq!(s.get(&e), v, "{}", s.name());
-        assert_ne!(e, d, "{} did not change anything", s.name());
+        assert!(s.set(&mut e, v), "{}", s.name);
+        assert_eq!(s.get(&e), v, "{}", s.name);
+        assert_ne!(e, d, "{} did not change anything", s.name);
         for o in SETTINGS.iter().filter(|o| o.id != s.id) {
             // adc.vref also sets the gyro conversion's copy of the reference.
-            assert_eq!(o.get(&e), o.get(&d), "{} changed {}", s.name(), o.name());
+            assert_eq!(o.get(&e), o.get(&d), "{} changed {}", s.name, o.name);
         }
     }
 }
@@ -166,10 +166,10 @@ fn the_longest_get_reply_and_set_command_fit_a_sentence() {
             Kind::U16 => 5,
             Kind::Axes => 8,
         };
-        let reply = "PINAR,OK,GET,".len() + s.name().len() + 1 + value_len;
-        assert!(reply <= crate::nmea::MAX_BODY_LEN, "{} reply {reply}", s.name());
-        let cmd = "$PINAC,SET,".len() + s.name().len() + 1 + value_len + "*hh\r\n".len();
-        assert!(cmd <= crate::nmea::MAX_SENTENCE_LEN, "{} command {cmd}", s.name());
+        let reply = "PINAR,OK,GET,".len() + s.name.len() + 1 + value_len;
+        assert!(reply <= crate::nmea::MAX_BODY_LEN, "{} reply {reply}", s.name);
+        let cmd = "$PINAC,SET,".len() + s.name.len() + 1 + value_len + "*hh\r\n".len();
+        assert!(cmd <= crate::nmea::MAX_SENTENCE_LEN, "{} command {cmd}", s.name);
     }
 }
 
@@ -184,7 +184,7 @@ fn docs_list_every_setting_exactly() {
         if !doc.lines().any(|l| l == row) {
             missing.push(row);
         }
-        assert!(doc.contains(&format!("`{}`", s.name())), "{} not in docs/commands.md", s.name());
+        assert!(doc.contains(&format!("`{}`", s.name)), "{} not in docs/commands.md", s.name);
     }
     assert!(missing.is_empty(), "rows missing from docs/commands.md:\n{}", missing.join("\n"));
 }
@@ -245,8 +245,8 @@ fn same_agrees_with_the_derived_equality() {
             Value::Axes(_) => Value::Axes(AxisMap::new([1, 0, 2], [1, 1, -1]).unwrap()),
         };
         let mut one = d;
-        assert!(s.set(&mut one, v), "{}", s.name());
-        assert_ne!(one, d, "{} did not change anything", s.name());
+        assert!(s.set(&mut one, v), "{}", s.name);
+        assert_ne!(one, d, "{} did not change anything", s.name);
         agree(&d, &one);
         agree(&one, &d);
         if k % 3 == 0 {
