@@ -76,9 +76,9 @@ struct Sums {
 /// Per-axis mean and variance of `n` samples from their sum and sum of squares.
 fn mean_var(sum: Vec3, sq: Vec3, n: u32) -> ([f32; 3], [f32; 3]) {
     let k = 1.0 / n.max(1) as f32;
-    let mean = (sum * k).to_array();
-    let sq = sq.to_array();
-    (mean, [0, 1, 2].map(|i| sq[i] * k - mean[i] * mean[i]))
+    let (m, q) = (sum * k, sq * k);
+    let var = Vec3::new(q.x - m.x * m.x, q.y - m.y * m.y, q.z - m.z * m.z);
+    (m.to_array(), var.to_array())
 }
 
 impl Sums {
@@ -176,8 +176,8 @@ impl Initializer {
         let configured = self.settings.gyro_bias.to_array();
         let off_max = 3.0 * self.settings.moving_bias_sigma;
         let (mean, var) = self.s.gyro();
-        for i in 0..3 {
-            if !(var[i] <= var_max[i]) || !(mathf::abs(mean[i] - configured[i]) <= off_max) {
+        for (((m, v), vmax), c) in mean.iter().zip(var).zip(var_max).zip(configured) {
+            if !(v <= vmax) || !(mathf::abs(m - c) <= off_max) {
                 return true;
             }
         }
@@ -194,9 +194,9 @@ impl Initializer {
             let (seg_mean, seg_var) = seg.gyro();
             let (cp_mean, _) = cp.gyro();
             let k = 1.0 / seg.gyro_n as f32 + 1.0 / cp.gyro_n as f32;
-            for i in 0..3 {
-                let d = seg_mean[i] - cp_mean[i];
-                if !(seg_var[i] <= var_max[i]) || !(d * d <= 9.0 * var_max[i] * k) {
+            for (((sm, sv), cm), vmax) in seg_mean.iter().zip(seg_var).zip(cp_mean).zip(var_max) {
+                let d = sm - cm;
+                if !(sv <= vmax) || !(d * d <= 9.0 * vmax * k) {
                     return true;
                 }
             }
