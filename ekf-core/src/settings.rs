@@ -171,10 +171,13 @@ pub struct RestSettings {
     /// Largest bias-corrected mean rate per axis in a still block, rad/s, on top of three
     /// standard errors of the block mean. Default 0.2 °/s: a steady 0.5 °/s turn is motion.
     pub rate_threshold: f32,
-    /// Largest gyro sample variance in a still block, as a multiple of the configured noise
-    /// variance. Default 4.
+    /// Largest variance of a still block's segment mean rates (eight segments, 0.25 s each by
+    /// default) per axis, as a multiple of what the configured noise gives a segment mean
+    /// (σ²·segments/n). Default 4. Vibration averages out of the segment means; rocking does
+    /// not.
     pub gyro_var_factor: f32,
-    /// Largest accelerometer standard deviation per axis in a still block, g. Default 0.01 g.
+    /// Largest standard deviation of a still block's segment mean accelerations per axis, g
+    /// (0.25 s segments by default: vibration averages out). Default 0.01 g.
     pub accel_std_max_g: f32,
     /// Standard deviation added to the bias measurement of a still block, rad/s (covers
     /// Earth rate and slow thermal drift). Default 0.005 °/s.

@@ -359,7 +359,7 @@ settings_table! {
         1.0,
         1.0,
         10000.0,
-        "largest gyro variance of a still block, times the configured noise",
+        "largest variance of a still block's 8 segment mean rates, times the configured noise's",
         |s| s.filter.rest.gyro_var_factor
     ),
     num!(
@@ -369,7 +369,7 @@ settings_table! {
         1.0,
         0.0,
         1.0,
-        "largest accelerometer standard deviation per axis of a still block",
+        "largest standard deviation per axis of a still block's 8 segment mean accelerations",
         |s| s.filter.rest.accel_std_max_g
     ),
     num!(
