@@ -1,0 +1,121 @@
+use nalgebra::SMatrix;
+
+use super::model::{gamma, process};
+use super::repair::all_finite;
+use super::*;
+use crate::{settings::Settings, Euler, Flags, ImuSample, Quaternion, Vec3};
+
+/// A Core with a trivial symmetric point set, to exercise the shared machinery.
+fn core() -> Core<f64, 15> {
+    let g = 3.0_f64.sqrt();
+    let mut z = SMatrix::<f64, N, 15>::zeros();
+    for j in 0..N {
+        z[(j, 1 + j)] = g;
+        z[(j, 8 + j)] = -g;
+    }
+    let w = 1.0 / 6.0;
+    let mut wm = [w; 15];
+    wm[0] = 1.0 - 14.0 * w;
+    let mut wc = wm;
+    wc[0] += 2.0;
+    let tuning = Tuning {
+        accel_var_scale: 10.0,
+        bias_random_walk: 1e-9,
+        initial_tilt_sigma: 0.03,
+        initial_yaw_sigma: 0.08,
+        initial_bias_sigma: 0.003,
+    };
+    let mut c = Core::new(Settings::default(), tuning, SigmaSet { z, wm, wc });
+    c.start(Euler::new(0.2, -0.1, 0.5).to_quaternion(), Vec3::ZERO);
+    c
+}
+
+fn level_sample() -> ImuSample {
+    ImuSample::new(0.02, Vec3::ZERO, Vec3::new(0.0, 0.0, -crate::GRAVITY))
+}
+
+#[test]
+fn process_model_is_the_digest_first_order_step() {
+    let x = Vector::<f64>::from_column_slice(&[1.0, 0.0, 0.0, 0.0, 0.1, 0.0, 0.0]);
+    // ω = gyro − b = (0.2, 0, 0): q ← (1, ½ ω dt).
+    let y = process(&x, &[0.3, 0.0, 0.0], 0.5);
+    assert!((y[0] - 1.0).abs() < 1e-15 && (y[1] - 0.05).abs() < 1e-15);
+    assert!(y[2] == 0.0 && y[3] == 0.0 && y[4] == 0.1);
+    // Same direction as the exact rotation about body x.
+    let q = Quaternion::new(1.0, 0.05, 0.0, 0.0).normalized();
+    let e = Quaternion::from_rotation_vector(Vec3::new(0.1, 0.0, 0.0));
+    assert!(q.angle_to(e) < 1e-3);
+}
+
+#[test]
+fn initial_covariance_maps_angles_to_quaternion_components() {
+    let c = core();
+    let p = c.initial_cov();
+    assert!(p.cholesky().is_some());
+    // A pure yaw perturbation of σ_ψ: quaternion variance along ½Γ_z is σ_ψ²/4 · |Γ_z|².
+    let g = gamma(&c.x);
+    let gz = g.column(2).into_owned();
+    let v = (gz.transpose() * p.fixed_view::<4, 4>(0, 0) * gz)[(0, 0)];
+    assert!((v - 0.25 * 0.08 * 0.08).abs() < 1e-9, "{v}");
+    assert!((p[(5, 5)] - 0.003 * 0.003).abs() < 1e-12);
+}
+
+#[test]
+fn indefinite_covariance_is_repaired_and_flagged() {
+    let mut c = core();
+    // Lose rank and go slightly indefinite in one direction: jitter repairs it.
+    c.covariance_mut()[(6, 6)] = -1e-12;
+    let f = c.update(&level_sample());
+    assert!(f.contains(Flags::HEALTH_RESET), "{f:?}");
+    assert!(c.p.cholesky().is_some());
+    // Grossly indefinite: reset to the initial covariance.
+    c.covariance_mut()[(0, 0)] = -1.0;
+    let f = c.update(&level_sample());
+    assert!(f.contains(Flags::HEALTH_RESET), "{f:?}");
+    assert!(c.p.cholesky().is_some());
+    assert!((0..N).all(|i| c.p[(i, i)] > 0.0));
+    // Non-finite: reset too.
+    c.covariance_mut()[(2, 3)] = f64::NAN;
+    let f = c.update(&level_sample());
+    assert!(f.contains(Flags::HEALTH_RESET));
+    assert!(all_finite(&c.p));
+    // A healthy covariance does not raise the flag.
+    let f = c.update(&level_sample());
+    assert!(!f.contains(Flags::HEALTH_RESET), "{f:?}");
+}
+
+#[test]
+fn transport_carries_the_covariance_with_the_mean() {
+    // P built at q, the mean then rotated (about NED axes, as a correction does): carried
+    // along, P is again the initial covariance, now at the new mean.
+    let mut c = core();
+    let q_prior = c.x.fixed_rows::<4>(0).into_owned();
+    let q =
+        Quaternion::new(q_prior[0] as f32, q_prior[1] as f32, q_prior[2] as f32, q_prior[3] as f32);
+    let q2 = Quaternion::from_rotation_vector(Vec3::new(0.02, -0.03, 0.01)) * q;
+    c.set_state(q2, Vec3::ZERO);
+    c.transport(&q_prior);
+    let p0 = c.initial_cov();
+    assert!((c.p - p0).abs().max() < 1e-8, "{}", (c.p - p0).abs().max());
+    // Without it the yaw variance would appear in the tilt directions of the new mean.
+    let mut d = core();
+    let p_old = d.p;
+    d.set_state(q2, Vec3::ZERO);
+    assert!((p_old - d.initial_cov()).abs().max() > 1e-6);
+}
+
+#[test]
+fn set_yaw_rotates_state_and_covariance() {
+    let mut c = core();
+    let before = Euler::from_quaternion(c.attitude());
+    let p_before = c.p;
+    c.set_yaw(-2.0);
+    let after = Euler::from_quaternion(c.attitude());
+    assert!((after.yaw + 2.0).abs() < 1e-5);
+    assert!((after.roll - before.roll).abs() < 1e-5);
+    assert!((after.pitch - before.pitch).abs() < 1e-5);
+    // Rotated with the state, P is again the initial covariance at the new attitude.
+    let p0 = c.initial_cov();
+    assert!((c.p - p0).abs().max() < 1e-9, "{}", (c.p - p0).abs().max());
+    assert!((c.p - p_before).abs().max() > 1e-6);
+}
