@@ -459,30 +459,21 @@ mod tests {
         raw
     }
 
-    /// Tiny deterministic LCG (Numerical Recipes constants) → uniform in [−1, 1).
-    struct Lcg(u32);
-    impl Lcg {
-        fn next(&mut self) -> f64 {
-            self.0 = self.0.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
-            f64::from(self.0) / 2_147_483_648.0 - 1.0
-        }
-    }
-
     /// A non-trivial known X: scale errors, cross-axis terms and offsets of a few percent.
     const KNOWN_X: [[f64; 3]; 4] =
         [[1.02, 0.015, -0.03], [-0.02, 0.97, 0.025], [0.04, -0.01, 1.05], [0.03, -0.05, 0.02]];
 
     fn synthetic_fit(samples: usize, noise_g: f64) -> SixPositionFit {
-        let mut rng = Lcg(12345);
+        let mut rng = crate::test_rng::TestRng::new(12345);
         let mut fit = SixPositionFit::new();
         for pos in Position::ALL {
             let r = pos.reference_g();
             let raw = inverse_model(&KNOWN_X, [r.x.into(), r.y.into(), r.z.into()]);
             for _ in 0..samples {
                 let v = Vec3::new(
-                    (raw[0] + noise_g * rng.next()) as f32,
-                    (raw[1] + noise_g * rng.next()) as f32,
-                    (raw[2] + noise_g * rng.next()) as f32,
+                    (raw[0] + noise_g * rng.uniform()) as f32,
+                    (raw[1] + noise_g * rng.uniform()) as f32,
+                    (raw[2] + noise_g * rng.uniform()) as f32,
                 );
                 fit.add_position(pos, v);
             }

@@ -53,6 +53,8 @@ pub mod rest;
 pub mod sample;
 pub mod settings;
 pub mod ssukf;
+#[cfg(test)]
+mod test_rng;
 pub mod ukf;
 mod unscented;
 pub mod validate;

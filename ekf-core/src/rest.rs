@@ -307,30 +307,22 @@ impl RestDetector {
 mod tests {
     use super::*;
     use crate::mathf::deg;
-
-    /// Deterministic zero-mean noise with unit variance (sum of uniforms).
-    struct Noise(u64);
-    impl Noise {
-        fn next(&mut self) -> f32 {
-            let mut s = 0.0;
-            for _ in 0..12 {
-                self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-                s += (self.0 >> 40) as f32 / (1u64 << 24) as f32;
-            }
-            s - 6.0
-        }
-    }
+    use crate::test_rng::TestRng;
 
     fn run(rate: Vec3, seconds: f32) -> (u32, u32) {
         let noise = NoiseSettings::default();
         let mut d = RestDetector::new(RestSettings::default());
-        let mut rng = Noise(7);
+        let mut rng = TestRng::new(7);
         let sd =
             Vec3::new(noise.gyro_var.x.sqrt(), noise.gyro_var.y.sqrt(), noise.gyro_var.z.sqrt());
         let (mut blocks, mut rest) = (0, 0);
         for _ in 0..(seconds * 50.0) as usize {
-            let w = rate + Vec3::new(rng.next() * sd.x, rng.next() * sd.y, rng.next() * sd.z);
-            let a = Vec3::new(0.0015 * rng.next(), 0.0015 * rng.next(), -1.0 + 0.0015 * rng.next());
+            let w = rate + Vec3::new(rng.normal() * sd.x, rng.normal() * sd.y, rng.normal() * sd.z);
+            let a = Vec3::new(
+                0.0015 * rng.normal(),
+                0.0015 * rng.normal(),
+                -1.0 + 0.0015 * rng.normal(),
+            );
             if let Some(b) = d.push(0.02, Some(w), Some(a), &noise) {
                 blocks += 1;
                 rest += b.at_rest as u32;
@@ -436,22 +428,22 @@ mod tests {
         let noise = NoiseSettings::default();
         let set = RestSettings::default();
         let mut d = RestDetector::new(set);
-        let mut rng = Noise(11);
+        let mut rng = TestRng::new(11);
         let sd = noise.gyro_var.to_array().map(mathf::sqrt);
         let (mut blocks, mut rest, mut a_sq, mut g_sq) = (0, 0, 0.0f32, 0.0f32);
         let n = 1_000;
         for k in 0..n {
             let va = tones(k, 0.02);
             let a = Vec3::new(
-                va.x + 0.0015 * rng.next(),
-                va.y + 0.0015 * rng.next(),
-                -1.0 + va.z + 0.0015 * rng.next(),
+                va.x + 0.0015 * rng.normal(),
+                va.y + 0.0015 * rng.normal(),
+                -1.0 + va.z + 0.0015 * rng.normal(),
             );
             let vg = tones(k + 7, deg(0.15));
             let w = Vec3::new(
-                vg.x + sd[0] * rng.next(),
-                vg.y + sd[1] * rng.next(),
-                vg.z + sd[2] * rng.next(),
+                vg.x + sd[0] * rng.normal(),
+                vg.y + sd[1] * rng.normal(),
+                vg.z + sd[2] * rng.normal(),
             );
             a_sq += (a.x * a.x + a.y * a.y) * 0.5;
             g_sq += w.z * w.z;

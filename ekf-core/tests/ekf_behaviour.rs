@@ -127,9 +127,11 @@ fn gate_skips_extra_acceleration_and_resumes_after() {
     assert_eq!(used_during, 0, "accelerometer used while accelerating");
     assert!(used_after > 300, "did not resume: {used_after}");
     // 3 s on the board's noisy x/y gyros alone (0.58 °/s per sample): a random walk of
-    // ~0.2° per axis, nothing more.
+    // 0.58·0.02·√150 = 0.14° per axis, nothing more. Its largest excursion over the 3 s stays
+    // below 0.7° with probability 1 − 1e−5 (reflection principle, Rayleigh tail); over seeds
+    // 1–30 the largest tilt error of the run is 0.16–0.61°.
     let gated_err = to_deg(max_err);
-    assert!(gated_err < 0.6, "tilt error {gated_err}°");
+    assert!(gated_err < 0.8, "tilt error {gated_err}°");
 
     // Without the gate the same acceleration tilts the estimate by degrees
     // (atan(0.06/0.92) = 3.7° if fully believed).
@@ -160,16 +162,24 @@ fn knocks_that_keep_the_norm_near_1g_do_not_throw_tilt_off() {
             s.accel = Vec3::new(side * GRAVITY, 0.0, -(1.0 - side * side).sqrt() * GRAVITY);
         }
     }
-    let mut f = started(Settings::default(), truth, Sensors::board().gyro_bias);
-    let mut max_err: f32 = 0.0;
-    let mut knocks = 0;
-    for (k, s) in samples.iter().enumerate() {
-        let flags = f.update(s);
-        knocks += flags.contains(Flags::ACCEL_KNOCK) as u32;
-        max_err = max_err.max(tilt_error(f.attitude(), run.truth[k]));
-    }
+    // The largest tilt error with the knocks, and on the same noise without them.
+    let largest = |samples: &[ImuSample]| {
+        let mut f = started(Settings::default(), truth, Sensors::board().gyro_bias);
+        let mut max_err: f32 = 0.0;
+        let mut knocks = 0;
+        for (k, s) in samples.iter().enumerate() {
+            let flags = f.update(s);
+            knocks += flags.contains(Flags::ACCEL_KNOCK) as u32;
+            max_err = max_err.max(tilt_error(f.attitude(), run.truth[k]));
+        }
+        (to_deg(max_err), knocks)
+    };
+    let (with, knocks) = largest(&samples);
+    let (without, _) = largest(&run.samples);
     assert!(knocks >= 9 * 2, "{knocks}");
-    assert!(to_deg(max_err) < 0.15, "tilt error {}°", to_deg(max_err));
+    // A knock that reached the state would add its 14° direction at the tilt gain; rejected,
+    // the knocks cost only the two samples' gyro-only propagation.
+    assert!(with < without + 0.02, "tilt error {with}° with the knocks, {without}° without");
 }
 
 #[test]

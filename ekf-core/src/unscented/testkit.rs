@@ -8,29 +8,14 @@ use crate::{
     Settings, Vec3, GRAVITY,
 };
 
-/// Deterministic uniform noise in [−1, 1).
-pub struct Lcg(u64);
-
-impl Lcg {
-    pub fn new(seed: u64) -> Self {
-        Lcg(seed)
-    }
-    pub fn next(&mut self) -> f32 {
-        self.0 =
-            self.0.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
-        ((self.0 >> 40) as f32) / ((1u64 << 24) as f32) * 2.0 - 1.0
-    }
-    pub fn vec(&mut self, amp: f32) -> Vec3 {
-        Vec3::new(self.next() * amp, self.next() * amp, self.next() * amp)
-    }
-}
+use crate::test_rng::TestRng;
 
 /// A test mean and a full, well-conditioned covariance with standard deviations `sq`
 /// (quaternion components) and `sb` (bias).
 fn test_moments(sq: f64, sb: f64) -> (Vector<f64>, Matrix<f64>) {
     let x = Vector::<f64>::from_column_slice(&[0.8, 0.3, -0.4, 0.3, 0.02, -0.01, 0.005]);
-    let mut rng = Lcg::new(7);
-    let a = Matrix::<f64>::from_fn(|_, _| rng.next() as f64);
+    let mut rng = TestRng::new(7);
+    let a = Matrix::<f64>::from_fn(|_, _| rng.uniform());
     let s =
         Matrix::<f64>::from_diagonal(&Vector::<f64>::from_fn(|i, _| if i < 4 { sq } else { sb }));
     let c = a * a.transpose() * (1.0 / N as f64) + Matrix::<f64>::identity() * 0.1;
@@ -123,7 +108,7 @@ pub fn tilt_convergence<F: AttitudeFilter>(f: &mut F) -> f32 {
     assert!(tilt_error_deg(f.attitude(), truth) > 35.0);
     let bias = Vec3::new(deg(0.1), deg(-0.1), deg(0.05));
     let f_true = truth.down_in_body() * -GRAVITY;
-    let mut rng = Lcg::new(42);
+    let mut rng = TestRng::new(42);
     let mut used = false;
     for _ in 0..1000 {
         let s = ImuSample::new(0.02, bias + rng.vec(deg(0.5)), f_true + rng.vec(0.02));
@@ -181,7 +166,7 @@ pub fn garbage_run<F: AttitudeFilter>(f: &mut F, cov: impl Fn(&F) -> SMatrix<f32
         ImuSample::new(0.02, g0, Vec3::new(3.0 * GRAVITY, 0.0, 0.0)),
         ImuSample::new(nan, Vec3::new(nan, nan, nan), Vec3::new(inf, nan, -inf)),
     ];
-    let mut rng = Lcg::new(3);
+    let mut rng = TestRng::new(3);
     for k in 0..1200 {
         let s = if k % 3 == 0 {
             bad[(k / 3) % bad.len()]
@@ -209,7 +194,7 @@ pub fn yaw_kept_through_tilt_corrections<F: AttitudeFilter>(f: &mut F) -> f32 {
     let start = Quaternion::from_rotation_vector(Vec3::new(deg(3.0), deg(-3.0), 0.0)) * truth;
     f.set_attitude(start, Vec3::ZERO);
     let f_true = truth.down_in_body() * -GRAVITY;
-    let mut rng = Lcg::new(11);
+    let mut rng = TestRng::new(11);
     for _ in 0..3000 {
         // Uniform ±0.0027 g: σ 0.0016 g, the configured accelerometer noise.
         f.update(&ImuSample::new(0.02, Vec3::ZERO, f_true + rng.vec(0.0027 * GRAVITY)));

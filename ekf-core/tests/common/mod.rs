@@ -3,18 +3,18 @@
 #![allow(dead_code)]
 
 use ekf_core::{mathf::deg, ImuSample, Quaternion, Vec3, GRAVITY};
+use rand_xoshiro::rand_core::{Rng as _, SeedableRng};
+use rand_xoshiro::Xoshiro256PlusPlus;
 
-/// Deterministic Gaussian noise (xorshift + Box–Muller).
-pub struct Rng(u64);
+/// Deterministic Gaussian noise: xoshiro256++ (`rand_xoshiro`) and Box–Muller.
+pub struct Rng(Xoshiro256PlusPlus);
 impl Rng {
     pub fn new(seed: u64) -> Self {
-        Rng(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1)
+        Rng(Xoshiro256PlusPlus::seed_from_u64(seed))
     }
+    /// Uniform in (0, 1).
     fn uniform(&mut self) -> f64 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        ((self.0 >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+        ((self.0.next_u64() >> 11) as f64 + 0.5) / (1u64 << 53) as f64
     }
     pub fn gauss(&mut self) -> f32 {
         let (u, v) = (self.uniform(), self.uniform());
