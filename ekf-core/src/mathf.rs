@@ -1,5 +1,10 @@
-//! Scalar `f32` functions for `no_std` (thin wrappers over `libm`, so host and target compute
-//! bit-identical results), and small helpers used across the crate.
+//! Scalar `f32` functions for `no_std`, and small helpers used across the crate. Each is pure
+//! Rust with no platform call, so host and target compute bit-identical results: `sqrt`,
+//! `asin_clamped`, `abs` and `wrap_pi`'s floor come from `libm`; `sin_cos` and `atan2` are this
+//! file's own polynomials (Cephes' single-precision method, and a minimax `atan2` within
+//! 6·10⁻⁷ rad), smaller and faster on the Cortex-M3 than `libm`'s and tested against it; the
+//! power-of-two scalings (`twice`, `half`, `quarter`) work on the exponent bits on the target
+//! (exactly the product elsewhere).
 
 /// Square root. `sqrt(x)` for `x < 0` is NaN, as in IEEE 754.
 #[inline]
@@ -22,7 +27,7 @@ pub fn cos(x: f32) -> f32 {
 /// [−π/4, π/4] by a three-part π/4, then degree-7 and degree-8 polynomials. Larger arguments
 /// are first reduced by whole turns in `f32` (their error grows as |x|·1e−7; no angle of this
 /// filter comes near). ≈ 400 bytes of code in place of `libm`'s 5.6 KB (`sinf`, `cosf` and the
-/// exact large-argument reduction `rem_pio2f`), which matters in the 64 KiB firmware.
+/// exact large-argument reduction `rem_pio2f`).
 pub fn sin_cos(x: f32) -> (f32, f32) {
     const FOPI: f32 = 1.273_239_5; // 4/π
     const DP1: f32 = 0.785_156_25;
