@@ -1,12 +1,12 @@
 //! Property tests: whatever the input — extremes, NaN, ±inf, saturation, absurd time steps —
-//! every filter keeps a finite unit quaternion and a finite bias, and the EKF keeps its
-//! covariance symmetric with a positive diagonal.
+//! every filter keeps a finite unit quaternion and a finite bias, and the EKF, the UKF and the
+//! SS-UKF keep their covariance finite and symmetric with a positive diagonal.
 
 #![allow(clippy::needless_range_loop)]
 
 use ekf_core::{
-    complementary::ComplementaryParams, settings::Settings, AttitudeFilter, Complementary, Ekf,
-    GyroOnly, ImuSample, Vec3,
+    complementary::ComplementaryParams, settings::Settings, ssukf::SsUkfParams, ukf::UkfParams,
+    AttitudeFilter, Complementary, Ekf, GyroOnly, ImuSample, SsUkf, Ukf, Vec3,
 };
 use proptest::prelude::*;
 
@@ -60,6 +60,18 @@ fn settings(window: bool, mag: bool) -> Settings {
     s
 }
 
+/// A 7×7 covariance (the unscented filters'): finite, exactly symmetric, positive diagonal.
+fn check_cov7(p: &nalgebra::SMatrix<f32, 7, 7>) -> Result<(), TestCaseError> {
+    for i in 0..7 {
+        prop_assert!(p[(i, i)].is_finite() && p[(i, i)] > 0.0, "P[{i}][{i}] = {}", p[(i, i)]);
+        for j in 0..7 {
+            prop_assert!(p[(i, j)].is_finite());
+            prop_assert_eq!(p[(i, j)], p[(j, i)]);
+        }
+    }
+    Ok(())
+}
+
 fn check_filter(f: &dyn AttitudeFilter) -> Result<(), TestCaseError> {
     let q = f.attitude();
     prop_assert!(q.is_finite(), "{:?}", q);
@@ -105,6 +117,21 @@ proptest! {
             g.update(smp);
             check_filter(&cf)?;
             check_filter(&g)?;
+        }
+    }
+
+    #[test]
+    fn unscented_filters_stay_valid(
+        samples in proptest::collection::vec(sample(), 1..200), window in any::<bool>()) {
+        let mut ukf = Ukf::new(settings(window, false), UkfParams::default());
+        let mut ss = SsUkf::new(settings(window, false), SsUkfParams::default());
+        for smp in &samples {
+            ukf.update(smp);
+            ss.update(smp);
+            check_filter(&ukf)?;
+            check_filter(&ss)?;
+            check_cov7(&ukf.covariance())?;
+            check_cov7(&ss.covariance())?;
         }
     }
 }
