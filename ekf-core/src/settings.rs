@@ -173,8 +173,9 @@ pub struct RestSettings {
     pub rate_threshold: f32,
     /// Largest variance of a still block's segment mean rates (eight segments, 0.25 s each by
     /// default) per axis, as a multiple of what the configured noise gives a segment mean
-    /// (σ²·segments/n). Default 4. Vibration averages out of the segment means; rocking does
-    /// not.
+    /// (σ²·segments/n). Default 6: with 8 segments the statistic is χ²₇/7 for noise alone,
+    /// beyond 6 with probability 5·10⁻⁷ per axis (beyond 4, 2·10⁻⁴: a still board would lose
+    /// rest about once an hour). Vibration averages out of the segment means; rocking does not.
     pub gyro_var_factor: f32,
     /// Largest standard deviation of a still block's segment mean accelerations per axis, g
     /// (0.25 s segments by default: vibration averages out). Default 0.01 g.
@@ -193,7 +194,7 @@ impl Default for RestSettings {
             block_s: 2.0,
             min_blocks: 2,
             rate_threshold: deg(0.2),
-            gyro_var_factor: 4.0,
+            gyro_var_factor: 6.0,
             accel_std_max_g: 0.01,
             bias_meas_floor: deg(0.005),
             yaw_hold: true,
