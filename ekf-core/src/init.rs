@@ -42,12 +42,21 @@ pub enum InitStep {
 pub const MIN_CHECK_SAMPLES: u32 = 10;
 /// Time before the window's stillness is judged, s.
 pub const MIN_CHECK_S: f32 = 0.2;
-/// Largest gyro variance per axis of a still window, as a multiple of the configured noise
-/// variance: 40 (6.3× in standard deviation). Tolerant of a noise setting 10× too low and of
-/// vibration and quantisation; the motion that corrupts a window's mean is orders of magnitude
-/// above it (a 15° pitch sine at 0.1 Hz: 44 (°/s)², 130× the x gyro's noise variance). Steady
-/// turns have no spread: the mean test catches them.
-pub const WINDOW_GYRO_VAR_FACTOR: f32 = 40.0;
+/// Largest spread (variance) of a still window's 0.25 s segment mean rates per axis: this
+/// multiple of what the samples' own variance gives a segment mean (σ²/n), plus
+/// `ekf.initial_bias_sigma²` (the bias uncertainty a still window starts the filter with:
+/// segment means that agree within it give a bias as good as the filter assumes). The test
+/// needs no noise setting: noise and vibration, whatever their level, spread the segment means
+/// by σ²/n (χ²₃/3 after four segments: beyond 8 with probability 3·10⁻⁵), while the slow
+/// motion that corrupts a window's mean moves them together (a 15° pitch sine at 0.1 Hz: by
+/// several °/s). Steady turns have no spread: the mean test catches them.
+pub const WINDOW_SPREAD_FACTOR: f32 = 8.0;
+/// Segments before their spread is judged.
+pub const MIN_SPREAD_SEGMENTS: u32 = 4;
+/// The samples' measured variance is taken as at least this fraction of the configured noise
+/// (a quantised gyro can read the same value for a while): 0.01, so that a noise setting 10×
+/// too high or too low changes no decision.
+pub const WINDOW_NOISE_FLOOR: f32 = 0.01;
 /// Largest accelerometer standard deviation per axis of a still window, as a multiple of
 /// `rest.accel_std_max_g` (0.01 g): 0.05 g. Vibration of a few hundredths of g (a pump, a
 /// thruster at idle) averages out of the tilt and does not touch the gyro bias; a 15° pitch
@@ -111,10 +120,16 @@ pub struct Initializer {
     yaw: f32,
     /// The sums over the window so far.
     s: Sums,
-    /// Largest per-sample gyro variance of a still window at the reference rate, (rad/s)².
-    gyro_var_max: Vec3,
-    /// Reference rate of `gyro_var_max`, Hz.
+    /// Smallest per-sample gyro variance assumed at the reference rate, (rad/s)².
+    gyro_var_floor: Vec3,
+    /// Reference rate of `gyro_var_floor`, Hz.
     gyro_ref_rate_hz: f32,
+    /// `ekf.initial_bias_sigma²`, (rad/s)²: the rate differences a still window tolerates.
+    bias_tol_sq: f32,
+    /// Completed 0.25 s segments: their number, and Σ and Σ² of their mean rates.
+    segments: u32,
+    seg_sum: Vec3,
+    seg_sq: Vec3,
     /// Largest accelerometer variance per axis of a still window, g².
     accel_var_max: f32,
     moving: bool,
@@ -127,21 +142,28 @@ pub struct Initializer {
 }
 
 impl Initializer {
-    /// A new window with the settings' initial yaw. A window is still when, per axis, the
-    /// gyro's variance is within [`WINDOW_GYRO_VAR_FACTOR`] times the configured noise, the
-    /// accelerometer's standard deviation within [`WINDOW_ACCEL_STD_FACTOR`] ×
-    /// `rest.accel_std_max_g`, and the mean gyro within 3 `moving_bias_sigma` of `gyro_bias`.
+    /// A new window with the settings' initial yaw. A window is still when, per axis, its
+    /// 0.25 s segment mean rates spread by no more than [`WINDOW_SPREAD_FACTOR`] times what the
+    /// samples' own variance gives them, the accelerometer's standard deviation is within
+    /// [`WINDOW_ACCEL_STD_FACTOR`] × `rest.accel_std_max_g`, the mean gyro within
+    /// 3 `moving_bias_sigma` of `gyro_bias`, and the samples since the last checkpoint agree
+    /// with those before it (within 3 standard errors plus `ekf.initial_bias_sigma`). No test
+    /// depends on the configured gyro noise (beyond a floor).
     pub fn new(s: &Settings) -> Self {
         Initializer {
             settings: s.init,
             yaw: s.init.initial_yaw,
             s: Sums::default(),
-            gyro_var_max: s.noise.gyro_var * WINDOW_GYRO_VAR_FACTOR,
+            gyro_var_floor: s.noise.gyro_var * WINDOW_NOISE_FLOOR,
             gyro_ref_rate_hz: s.noise.gyro_ref_rate_hz.max(1e-3),
             accel_var_max: {
                 let a = s.rest.accel_std_max_g * WINDOW_ACCEL_STD_FACTOR;
                 a * a
             },
+            bias_tol_sq: s.ekf.initial_bias_sigma * s.ekf.initial_bias_sigma,
+            segments: 0,
+            seg_sum: Vec3::ZERO,
+            seg_sq: Vec3::ZERO,
             moving: false,
             checkpoint: Sums::default(),
             previous: Sums::default(),
@@ -172,12 +194,12 @@ impl Initializer {
         }
         // Per-sample noise scales with the sample rate (constant noise density).
         let rate = self.s.gyro_n as f32 / self.s.elapsed;
-        let var_max = (self.gyro_var_max * (rate / self.gyro_ref_rate_hz)).to_array();
+        let floor = (self.gyro_var_floor * (rate / self.gyro_ref_rate_hz)).to_array();
         let configured = self.settings.gyro_bias.to_array();
         let off_max = 3.0 * self.settings.moving_bias_sigma;
-        let (mean, var) = self.s.gyro();
-        for (((m, v), vmax), c) in mean.iter().zip(var).zip(var_max).zip(configured) {
-            if !(v <= vmax) || !(mathf::abs(m - c) <= off_max) {
+        let (mean, _) = self.s.gyro();
+        for (m, c) in mean.iter().zip(configured) {
+            if !(mathf::abs(m - c) <= off_max) {
                 return true;
             }
         }
@@ -186,17 +208,34 @@ impl Initializer {
         {
             return true;
         }
-        // Motion that begins after a still part: the samples since the last checkpoint against
-        // those before it — a spread, or a mean rate 3 standard errors away.
+        // The segment means against the samples' own scatter (the samples up to the last
+        // checkpoint, which the segments cover).
         let cp = self.checkpoint;
+        let (_, cp_var) = cp.gyro();
+        if self.segments >= MIN_SPREAD_SEGMENTS {
+            let k = self.segments as f32;
+            let n_seg = cp.gyro_n as f32 / k;
+            let (sum, sq) = (self.seg_sum.to_array(), self.seg_sq.to_array());
+            for (((s1, s2), v), f) in sum.iter().zip(sq).zip(cp_var).zip(floor) {
+                let spread = (s2 - s1 * s1 / k) / (k - 1.0);
+                if !(spread <= WINDOW_SPREAD_FACTOR * v.max(f) / n_seg + self.bias_tol_sq) {
+                    return true;
+                }
+            }
+        }
+        // Motion that begins after a still part: the samples since the last checkpoint against
+        // those before it — a mean rate 3 standard errors away, and far enough to move the
+        // window's mean by more than the tolerance (`d·n_seg/n` beyond `initial_bias_sigma`).
         let seg = self.s.since(&cp);
         if cp.gyro_n >= MIN_CHECK_SAMPLES && seg.gyro_n >= MIN_CHECK_SAMPLES {
-            let (seg_mean, seg_var) = seg.gyro();
+            let (seg_mean, _) = seg.gyro();
             let (cp_mean, _) = cp.gyro();
             let k = 1.0 / seg.gyro_n as f32 + 1.0 / cp.gyro_n as f32;
-            for (((sm, sv), cm), vmax) in seg_mean.iter().zip(seg_var).zip(cp_mean).zip(var_max) {
+            let share = self.s.gyro_n as f32 / seg.gyro_n as f32;
+            let tol_sq = self.bias_tol_sq * share * share;
+            for (((sm, cm), v), f) in seg_mean.iter().zip(cp_mean).zip(cp_var).zip(floor) {
                 let d = sm - cm;
-                if !(sv <= vmax) || !(d * d <= 9.0 * vmax * k) {
+                if !(d * d <= 9.0 * v.max(f) * k + tol_sq) {
                     return true;
                 }
             }
@@ -275,6 +314,13 @@ impl Initializer {
             return InitStep::Done(q, self.settings.gyro_bias);
         }
         if self.s.elapsed - self.checkpoint.elapsed >= CHECKPOINT_S {
+            let seg = self.s.since(&self.checkpoint);
+            if seg.gyro_n > 0 {
+                let m = Vec3::from_array(seg.gyro().0);
+                self.seg_sum += m;
+                self.seg_sq += Vec3::new(m.x * m.x, m.y * m.y, m.z * m.z);
+                self.segments += 1;
+            }
             self.still_prefix = self.previous;
             self.previous = self.checkpoint;
             self.checkpoint = self.s;
@@ -403,9 +449,10 @@ mod tests {
             off + Vec3::new(0.0, pitch, 0.0)
         });
         assert!(!init.was_moving());
-        // Seen at 2.8 s (the rate reaches the window's 3-standard-error test about 0.6 s in);
-        // the window ends at 2.25 s or before, with at most the sine's first 0.25 s in it.
-        assert!((120..160).contains(&k), "{k}");
+        // Seen about 0.35 s in, when the sine's segment mean would move the window's mean by
+        // `initial_bias_sigma` (noise-free, the samples have no scatter). The window ends at
+        // 2.25 s or before, with at most the sine's first 0.25 s in it.
+        assert!((110..125).contains(&k), "{k}");
         assert!(init.elapsed() <= 2.3, "{}", init.elapsed());
         assert!((b - off).max_abs() < deg(0.05), "{b:?}");
         assert!(init.bias_variance(&s.noise).is_some());
