@@ -14,7 +14,7 @@ use std::{
     time::{Duration, Instant},
 };
 
-use ekf_core::{AttitudeFilter, Vec3, GRAVITY};
+use ekf_core::{Vec3, GRAVITY};
 use host_tests::sim::{Scenario, SimSample, Simulator};
 use inemo_ahrs::{
     adc::AdcMean,
@@ -223,7 +223,7 @@ impl Firmware {
                     self.board.set_rate(f64::from(self.device.settings().filter_rate_hz));
                 }
             }
-            Some(Action::SetYaw(yaw)) => self.pipeline.ekf_mut().set_yaw(yaw),
+            Some(Action::SetYaw(yaw)) => self.pipeline.set_yaw(yaw),
             None => {}
         }
     }
@@ -266,6 +266,7 @@ impl Firmware {
         let inputs = self.board.inputs();
         let sample = self.pipeline.conditioned_sample(&inputs);
         let step = self.pipeline.step(&inputs);
+        self.device.set_heading_ref(step.heading_ref);
         let out = self.device.on_cycle(&inputs, &sample);
         let mut bytes = Vec::with_capacity(256);
         if let Some(reply) = &out.reply {

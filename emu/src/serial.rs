@@ -13,7 +13,7 @@
 //!   axis, a little noise, no rotation) until any other command (`ACAL,CLEAR`, the `SET`s of
 //!   the fit). The trace runs on meanwhile, unseen: record `n` always feeds cycle `n` after boot (modulo its length).
 
-use ekf_core::{AttitudeFilter as _, Vec3};
+use ekf_core::Vec3;
 use inemo_ahrs::{
     command::{position_by_name, Action, Device, LineAssembler, LineEvent},
     nmea,
@@ -100,6 +100,7 @@ impl<'f, F: Flash> SerialFirmware<'f, F> {
         inputs.last_cycle_us = last_cycle_us;
         let sample = self.pipeline.conditioned_sample(&inputs);
         let step = self.pipeline.step(&inputs);
+        self.device.set_heading_ref(step.heading_ref);
         let out = self.device.on_cycle(&inputs, &sample);
         if let Some(reply) = &out.reply {
             tx.send(reply.as_bytes());
@@ -121,7 +122,7 @@ impl<'f, F: Flash> SerialFirmware<'f, F> {
             Some(Action::ApplySettings { .. }) => {
                 self.pipeline.apply_settings(*self.device.settings())
             }
-            Some(Action::SetYaw(yaw)) => self.pipeline.ekf_mut().set_yaw(yaw),
+            Some(Action::SetYaw(yaw)) => self.pipeline.set_yaw(yaw),
             None => {}
         }
     }
