@@ -104,6 +104,10 @@ enum Cmd {
         /// command received (back to the scenario on any other command).
         #[arg(long)]
         follow_acal: bool,
+        /// Simulate the magnetometer too (the field of the default `mag.*` settings; the
+        /// estimator uses it after `SET,mag.enabled,1`).
+        #[arg(long)]
+        mag: bool,
     },
 }
 
@@ -131,8 +135,8 @@ fn main() -> ExitCode {
         }
         Cmd::Log { port, out, seconds } => log(&port, &out, seconds),
         Cmd::Calibrate { port, seconds } => calibrate(&port, seconds),
-        Cmd::Emulate { pty, port, scenario, speed, depth, seed, follow_acal } => {
-            let opts = emulate::Options { scenario, speed, depth_m: depth, seed, follow_acal };
+        Cmd::Emulate { pty, port, scenario, speed, depth, seed, follow_acal, mag } => {
+            let opts = emulate::Options { scenario, speed, depth_m: depth, seed, follow_acal, mag };
             emulator(pty, port, &opts)
         }
     };
