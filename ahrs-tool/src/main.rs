@@ -4,8 +4,10 @@
 //! - `send <port> <COMMAND...>`: one `$PINAC` command, print the `$PINAR` reply;
 //! - `log <port> --out trace.csv`: raw mode into the trace CSV format;
 //! - `calibrate <port>`: interactive six-position accelerometer calibration;
-//! - `emulate --pty`: the firmware library on the host behind a pseudo-terminal.
+//! - `emulate --pty`: the firmware library on the host behind a pseudo-terminal;
+//! - `bridge <port> --udp host[:port] --tcp addr[:port]`: the sentences onto the network.
 
+mod bridge;
 mod emulate;
 mod link;
 mod raw;
@@ -78,6 +80,23 @@ enum Cmd {
         #[arg(long, default_value_t = 2.0)]
         seconds: f64,
     },
+    /// Forward the device's sentences to UDP (OpenCPN, Signal K, a ROV station) and/or to the
+    /// clients of a TCP server, whose lines go back to the device as commands.
+    Bridge {
+        /// Serial port.
+        port: String,
+        /// Send every sentence as a UDP datagram to host[:port] (port 10110 by default; a
+        /// broadcast address works).
+        #[arg(long)]
+        udp: Option<String>,
+        /// Serve TCP clients on addr[:port] (10110 by default): they get the sentences, and
+        /// their lines go to the device (a command body such as `SENT,HDT,1`, or a sentence).
+        #[arg(long)]
+        tcp: Option<String>,
+        /// Stop after this many seconds (default: until interrupted).
+        #[arg(long)]
+        seconds: Option<f64>,
+    },
     /// Run the firmware library on the host behind a pseudo-terminal (or a given port),
     /// fed by the host-tests simulator. Prints the port path on the first line of stdout.
     Emulate {
@@ -135,6 +154,11 @@ fn main() -> ExitCode {
         }
         Cmd::Log { port, out, seconds } => log(&port, &out, seconds),
         Cmd::Calibrate { port, seconds } => calibrate(&port, seconds),
+        Cmd::Bridge { port, udp, tcp, seconds } => {
+            catch_ctrl_c();
+            let stop = || INTERRUPTED.load(Ordering::SeqCst);
+            bridge::run(&port, udp.as_deref(), tcp.as_deref(), seconds, &stop)
+        }
         Cmd::Emulate { pty, port, scenario, speed, depth, seed, follow_acal, mag } => {
             let opts = emulate::Options { scenario, speed, depth_m: depth, seed, follow_acal, mag };
             emulator(pty, port, &opts)
