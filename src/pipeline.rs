@@ -778,4 +778,38 @@ mod tests {
         assert_eq!(p.heading_ref(), HeadingRef::True);
         assert!(with_prefix(&b, "HCHDT,").is_some() && with_prefix(&b, "HCHDM").is_none());
     }
+
+    /// The longest output (every sentence at its widest) and the highest output rate at which
+    /// 115200 baud (11,520 bytes/s, 8N1) carries it: the figures of `docs/marine.md`.
+    #[test]
+    fn longest_output_and_the_rate_the_serial_line_carries() {
+        let t = registry::talker_code(*b"HC");
+        let worst = Euler::new(deg(-179.99), deg(-89.99), deg(-179.99));
+        let pinah = nmea::pinah(&PinahData {
+            euler: worst,
+            quaternion: Quaternion::new(0.1234, -0.9876, -0.5432, -1.0),
+            depth_m: Some(-9.9),
+            status: Status(u32::MAX),
+            cycle_us: u32::MAX,
+            heading_ref: HeadingRef::Magnetic,
+        })
+        .unwrap();
+        let lens = [
+            nmea::prdid(&worst).unwrap().len(),
+            pinah.len(),
+            nmea::hdt(t, deg(359.9)).unwrap().len(),
+            nmea::hdg(t, deg(359.9), deg(-179.9)).unwrap().len(),
+            nmea::hdm(t, deg(359.9)).unwrap().len(),
+            nmea::rot(t, Some(deg(-1666.0)), true).unwrap().len(),
+            nmea::xdr(t, Some((deg(-89.9), deg(-179.9))), Some(9999.9)).unwrap().unwrap().len(),
+        ];
+        assert_eq!(lens, [33, 82, 19, 27, 19, 22, 59]);
+        let total: usize = lens.iter().sum();
+        assert_eq!(total, 261);
+        // Bytes per second at 115200 baud, 10 bits a byte.
+        let line = board::USART_BAUD as usize / 10;
+        assert_eq!(line / total, 44);
+        // The default output (PRDID and PINAH) at the highest rate, 50 Hz.
+        assert!((lens[0] + lens[1]) * 50 <= line);
+    }
 }

@@ -229,15 +229,26 @@ fn live_line(prdid: Option<&[String]>, pinah: Option<&[String]>) -> String {
         f.and_then(|f| f.get(i)).filter(|s| !s.is_empty()).cloned().unwrap_or_else(|| "-".into())
     };
     match pinah {
-        // $PINAH,<roll>,<pitch>,<yaw>,<qw>,<qx>,<qy>,<qz>,<depth>,<status>,<cycle>
-        Some(_) => format!(
-            "roll {:>8}  pitch {:>7}  yaw {:>8}  depth {:>6} m  status {}",
-            get(pinah, 1),
-            get(pinah, 2),
-            get(pinah, 3),
-            get(pinah, 8),
-            get(pinah, 9)
-        ),
+        // $PINAH,<roll>,<pitch>,<yaw>,<qw>,<qx>,<qy>,<qz>,<depth>,<status>,<cycle>; the
+        // status word's bits 20–21 are the heading reference.
+        Some(_) => {
+            let status = get(pinah, 9);
+            let reference = match u32::from_str_radix(&status, 16).map(|s| (s >> 20) & 3) {
+                Ok(0) => "relative",
+                Ok(1) => "true (YAW)",
+                Ok(2) => "true (magnetometer)",
+                _ => "-",
+            };
+            format!(
+                "roll {:>8}  pitch {:>7}  yaw {:>8}  depth {:>6} m  status {}  heading {}",
+                get(pinah, 1),
+                get(pinah, 2),
+                get(pinah, 3),
+                get(pinah, 8),
+                status,
+                reference
+            )
+        }
         // $PRDID,<pitch>,<roll>,<heading>
         None => format!(
             "roll {:>8}  pitch {:>7}  heading {:>8}",
@@ -452,4 +463,29 @@ fn emulator(pty: bool, port: Option<PathBuf>, opts: &emulate::Options) -> Result
         opts.scenario, opts.speed
     );
     emulate::run(file, opts).map_err(io_err)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn fields(line: &str) -> Vec<String> {
+        line.split(',').map(str::to_string).collect()
+    }
+
+    #[test]
+    fn live_shows_the_heading_reference_from_the_status_word() {
+        let p = |status: &str| {
+            fields(&format!("PINAH,1.00,2.00,3.00,1.0000,0.0000,0.0000,0.0000,2.5,{status},400"))
+        };
+        let line = live_line(None, Some(&p("000300")));
+        assert!(line.contains("status 000300  heading relative"), "{line}");
+        assert!(live_line(None, Some(&p("100300"))).ends_with("heading true (YAW)"));
+        assert!(live_line(None, Some(&p("200300"))).ends_with("heading true (magnetometer)"));
+        assert!(live_line(None, Some(&p(""))).ends_with("heading -"));
+        let prdid = fields("PRDID,+2.00,+1.00,3.00");
+        let words: Vec<String> =
+            live_line(Some(&prdid), None).split_whitespace().map(str::to_string).collect();
+        assert_eq!(words, ["roll", "+1.00", "pitch", "+2.00", "heading", "3.00"]);
+    }
 }
