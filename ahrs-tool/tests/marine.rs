@@ -11,9 +11,7 @@
 //! `AHRS_MARINE_REQUIRED` is set (as `scripts/test-all` does): then it fails.
 
 use std::{
-    env,
-    io::{BufRead, BufReader, Read},
-    path::{Path, PathBuf},
+    io::{BufRead, BufReader},
     process::{Child, Command, Stdio},
     time::{Duration, Instant},
 };
@@ -21,49 +19,10 @@ use std::{
 // `calibrate` is for the other end-to-end tests.
 #[allow(dead_code)]
 mod common;
+use common::clients::{
+    angle_diff, capture, check_agreement, clients_or_skip, kind, outputs, parse, sk,
+};
 use common::{stdout, BIN};
-
-fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("workspace root").to_path_buf()
-}
-
-fn required() -> bool {
-    let set = |v: &str| env::var(v).is_ok_and(|s| !s.is_empty() && s != "0" && s != "false");
-    set("CI") || set("AHRS_MARINE_REQUIRED")
-}
-
-/// The clients: (pynmea2's python, Signal K's node_modules), or why they are missing.
-fn clients() -> Result<(PathBuf, PathBuf), String> {
-    let root = root();
-    let python = root.join("target/marine-venv/bin/python");
-    let modules = root.join("target/marine-node/node_modules");
-    let ok = |c: &mut Command| c.output().is_ok_and(|o| o.status.success());
-    if !ok(Command::new(&python).args(["-c", "import pynmea2"])) {
-        return Err(format!("no pynmea2 in {}: run scripts/marine-clients", python.display()));
-    }
-    if !ok(Command::new("node")
-        .args(["-e", "require('@signalk/nmea0183-signalk')"])
-        .env("NODE_PATH", &modules))
-    {
-        return Err(format!(
-            "no node or no @signalk/nmea0183-signalk in {}: run scripts/marine-clients",
-            modules.display()
-        ));
-    }
-    Ok((python, modules))
-}
-
-/// The clients, or `None` (skip) when they are missing and not required.
-fn clients_or_skip() -> Option<(PathBuf, PathBuf)> {
-    match clients() {
-        Ok(c) => Some(c),
-        Err(why) if required() => panic!("marine client test cannot run: {why}"),
-        Err(why) => {
-            eprintln!("skipped: {why} (set AHRS_MARINE_REQUIRED=1 to fail instead)");
-            None
-        }
-    }
-}
 
 /// A running emulator; killed on drop.
 struct Emulator {
@@ -100,29 +59,7 @@ impl Emulator {
 
     /// The complete lines the device sends during `seconds` (wall clock).
     fn capture(&self, seconds: f64) -> Vec<String> {
-        let mut port = std::fs::OpenOptions::new()
-            .read(true)
-            .custom_flags_nonblock()
-            .open(&self.port)
-            .expect("open pty");
-        let end = Instant::now() + Duration::from_secs_f64(seconds);
-        let mut bytes = Vec::new();
-        let mut buf = [0u8; 4096];
-        while Instant::now() < end {
-            match port.read(&mut buf) {
-                Ok(n) if n > 0 => bytes.extend_from_slice(&buf[..n]),
-                _ => std::thread::sleep(Duration::from_millis(5)),
-            }
-        }
-        let text = String::from_utf8_lossy(&bytes).into_owned();
-        // Drop the partial first and last lines.
-        let mut lines: Vec<String> = text.split("\r\n").map(str::to_string).collect();
-        lines.pop();
-        if !lines.is_empty() {
-            lines.remove(0);
-        }
-        lines.retain(|l| l.starts_with('$') && !l.starts_with("$PINAR"));
-        lines
+        capture(&self.port, seconds)
     }
 }
 
@@ -131,117 +68,6 @@ impl Drop for Emulator {
         let _ = self.child.kill();
         let _ = self.child.wait();
     }
-}
-
-trait NonBlock {
-    fn custom_flags_nonblock(&mut self) -> &mut Self;
-}
-impl NonBlock for std::fs::OpenOptions {
-    fn custom_flags_nonblock(&mut self) -> &mut Self {
-        use std::os::unix::fs::OpenOptionsExt;
-        self.custom_flags(libc::O_NONBLOCK | libc::O_NOCTTY)
-    }
-}
-
-/// What both clients read from each line: pynmea2's fields and Signal K's `path=value`s.
-struct Parsed {
-    lines: Vec<String>,
-    pynmea2: Vec<Vec<String>>,
-    signalk: Vec<Vec<String>>,
-}
-
-/// Run both clients over `lines` (written to a file under target/).
-fn parse(clients: &(PathBuf, PathBuf), lines: Vec<String>, name: &str) -> Parsed {
-    let root = root();
-    let dir = root.join("target/marine-test");
-    std::fs::create_dir_all(&dir).expect("target/marine-test");
-    let file = dir.join(format!("{name}-{}.nmea", std::process::id()));
-    let text: String = lines.iter().map(|l| format!("{l}\r\n")).collect();
-    std::fs::write(&file, text).expect("write capture");
-    let run = |c: &mut Command| {
-        let o = c.output().expect("run client");
-        assert!(o.status.success(), "{c:?}: {}", String::from_utf8_lossy(&o.stderr));
-        let out = stdout(&o);
-        let rows: Vec<Vec<String>> =
-            out.lines().map(|l| l.split('\t').skip(1).map(str::to_string).collect()).collect();
-        assert_eq!(rows.len(), lines.len(), "{c:?} answered every line");
-        rows
-    };
-    let pynmea2 =
-        run(Command::new(&clients.0).arg(root.join("tools/marine/parse_pynmea2.py")).arg(&file));
-    let signalk = run(Command::new("node")
-        .arg(root.join("tools/marine/parse_signalk.js"))
-        .arg(&file)
-        .env("NODE_PATH", &clients.1));
-    std::fs::remove_file(&file).ok();
-    Parsed { lines, pynmea2, signalk }
-}
-
-/// Signal K's value of `path` in the values of one line.
-fn sk(values: &[String], path: &str) -> Option<f64> {
-    values.iter().find_map(|v| v.strip_prefix(path)?.strip_prefix('=')?.parse().ok())
-}
-
-/// Difference of two angles, degrees, in (−180, 180].
-fn angle_diff(a: f64, b: f64) -> f64 {
-    let d = (a - b).rem_euclid(360.0);
-    if d > 180.0 {
-        d - 360.0
-    } else {
-        d
-    }
-}
-
-/// One output of the device: its `$PINAH` (the estimate) and the standard sentences after it.
-#[derive(Default)]
-struct Output {
-    roll: f64,
-    pitch: f64,
-    yaw: f64,
-    depth: Option<f64>,
-    status: u32,
-    /// Indices of the output's other lines in [`Parsed`].
-    others: Vec<usize>,
-    /// The `$PRDID` before it, if any.
-    prdid: Option<usize>,
-}
-
-/// `$PINAH` status bits that make the attitude untrustworthy: initialising (0), gyro invalid
-/// (1), time gap (2), gyro saturated (3), health reset (12), ADC fault (17), gyro rail (18).
-const INVALID: u32 = 1 | 2 | 4 | 8 | 1 << 12 | 1 << 17 | 1 << 18;
-
-/// The outputs of a capture, from pynmea2's reading of `$PINAH` (proprietary data fields).
-fn outputs(p: &Parsed) -> Vec<Output> {
-    let mut out: Vec<Output> = Vec::new();
-    let mut prdid = None;
-    for (i, f) in p.pynmea2.iter().enumerate() {
-        assert_ne!(f[0], "ERROR", "pynmea2 refused {}: {f:?}", p.lines[i]);
-        match f[0].as_str() {
-            "PINAH" => {
-                let num = |k: usize| f[k].parse::<f64>().unwrap_or(f64::NAN);
-                out.push(Output {
-                    roll: num(1),
-                    pitch: num(2),
-                    yaw: num(3),
-                    depth: f[8].parse().ok(),
-                    status: u32::from_str_radix(&f[9], 16).expect("status word"),
-                    others: Vec::new(),
-                    prdid: prdid.take(),
-                });
-            }
-            "PRDID" => prdid = Some(i),
-            _ => {
-                if let Some(o) = out.last_mut() {
-                    o.others.push(i);
-                }
-            }
-        }
-    }
-    out
-}
-
-fn kind<'a>(p: &'a Parsed, o: &Output, name: &str) -> Option<(usize, &'a [String])> {
-    o.others.iter().find(|&&i| p.pynmea2[i][0] == name).map(|&i| (i, &p.pynmea2[i][1..]))
 }
 
 #[test]
@@ -253,121 +79,14 @@ fn every_sentence_parses_in_pynmea2_and_signal_k_and_agrees_with_the_estimate() 
     emu.send("SET,mag.enabled,1");
     // 3 s: 30 s of the scenario, 300 outputs at 10 Hz.
     let p = parse(&clients, emu.capture(3.0), "moving");
-    for (i, s) in p.signalk.iter().enumerate() {
-        assert!(s.first().is_none_or(|x| x != "ERROR"), "Signal K refused {}: {s:?}", p.lines[i]);
-    }
-    let outs = outputs(&p);
-    assert!(outs.len() > 200, "{} outputs", outs.len());
-    // No handler for the proprietary sentences either.
-    for (i, f) in p.pynmea2.iter().enumerate() {
-        if f[0] == "PINAH" || f[0] == "PRDID" {
-            assert_eq!(p.signalk[i], ["null"], "{}", p.lines[i]);
-        }
-    }
-    let deg = f64::to_degrees;
-    let (mut hdt, mut hdg, mut hdm, mut rot, mut xdr) = (0, 0, 0, 0, 0);
-    for (k, o) in outs.iter().enumerate() {
-        // Validity is judged over the cycles since the previous output; `$PINAH` shows the
-        // output's cycle. A sentence without status goes out only when valid; one withheld
-        // while this and the previous output look valid would be a fault in between, which
-        // the emulated board does not have.
-        let valid = o.status & INVALID == 0;
-        let settled = valid && k > 0 && outs[k - 1].status & INVALID == 0;
-        let reference = (o.status >> 20) & 3;
-        let yaw360 = o.yaw.rem_euclid(360.0);
-        // PRDID only while valid; its values are the estimate's.
-        match o.prdid {
-            Some(i) => {
-                assert!(valid, "{}", p.lines[i]);
-                let f = &p.pynmea2[i];
-                let v = |j: usize| f[j].parse::<f64>().unwrap();
-                assert!((v(1) - o.pitch).abs() < 0.011 && (v(2) - o.roll).abs() < 0.011);
-                assert!(angle_diff(v(3), yaw360).abs() < 0.011);
-            }
-            None => assert!(!settled, "no $PRDID though valid: {:x}", o.status),
-        }
-        // HDT: true heading on navigation.headingTrue (rad), within 0.05° + the estimate's
-        // 0.005°.
-        if let Some((i, f)) = kind(&p, o, "HDT") {
-            assert!(valid && reference != 0, "{}", p.lines[i]);
-            let h = sk(&p.signalk[i], "navigation.headingTrue").expect("headingTrue");
-            assert!(angle_diff(deg(h), yaw360).abs() <= 0.0551, "{} vs {yaw360}", p.lines[i]);
-            assert!(angle_diff(f[0].parse().unwrap(), yaw360).abs() <= 0.0551);
-            hdt += 1;
-        }
-        // HDG: magnetic = true − declination (−25.5°: W); Signal K adds the variation back.
-        let magnetic = yaw360 + 25.5;
-        if let Some((i, f)) = kind(&p, o, "HDG") {
-            assert!(valid && reference == 2, "{} status {:x}", p.lines[i], o.status);
-            let s = &p.signalk[i];
-            let m = sk(s, "navigation.headingMagnetic").expect("headingMagnetic");
-            let t = sk(s, "navigation.headingTrue").expect("headingTrue");
-            let var = sk(s, "navigation.magneticVariation").expect("magneticVariation");
-            assert!(angle_diff(deg(m), magnetic).abs() <= 0.0551, "{}", p.lines[i]);
-            assert!(angle_diff(deg(t), yaw360).abs() <= 0.0551 + 0.05, "{}", p.lines[i]);
-            assert!((deg(var) + 25.5).abs() < 1e-6, "{} {var}", p.lines[i]);
-            assert_eq!((f[1].as_str(), f[2].as_str()), ("25.5", "W"));
-            hdg += 1;
-        }
-        if let Some((i, _)) = kind(&p, o, "HDM") {
-            assert!(valid && reference == 2, "{} status {:x}", p.lines[i], o.status);
-            let m = sk(&p.signalk[i], "navigation.headingMagnetic").expect("headingMagnetic");
-            assert!(angle_diff(deg(m), magnetic).abs() <= 0.0551, "{}", p.lines[i]);
-            hdm += 1;
-        }
-        // ROT: the heading's change since the previous output over its 0.1 s (of the
-        // scenario's time), °/min; the estimate's 0.005° rounding at both ends is 6 °/min.
-        let (i, f) = kind(&p, o, "ROT").expect("ROT in every output");
-        let rate = sk(&p.signalk[i], "navigation.rateOfTurn");
-        if f[1] == "A" {
-            let prev = k.checked_sub(1).map(|j| &outs[j]);
-            let expect = prev.map(|q| angle_diff(o.yaw, q.yaw) / 0.1 * 60.0);
-            let got = deg(rate.expect("rateOfTurn")) * 60.0;
-            assert!(valid, "{}", p.lines[i]);
-            if let Some(e) = expect {
-                assert!((got - e).abs() <= 6.06, "{} vs {e} °/min", p.lines[i]);
-                assert!((f[0].parse::<f64>().unwrap() - got).abs() < 1e-6);
-                rot += 1;
-            }
-        } else {
-            assert_eq!(rate, None, "ROT with V reached Signal K: {}", p.lines[i]);
-        }
-        // XDR via pynmea2: pitch, roll (degrees, 1 decimal) and depth (m, 1 decimal).
-        if let Some((i, f)) = kind(&p, o, "XDR") {
-            let t = |name: &str| {
-                f.iter().find(|x| x.ends_with(name)).map(|x| {
-                    let q: Vec<&str> = x.split(':').collect();
-                    (q[0].to_string(), q[1].parse::<f64>().unwrap(), q[2].to_string())
-                })
-            };
-            match (t(":PTCH"), t(":ROLL")) {
-                (Some((ta, pitch, ua)), Some((tb, roll, ub))) => {
-                    assert!(valid, "{}", p.lines[i]);
-                    assert_eq!(
-                        (ta.as_str(), ua.as_str(), tb.as_str(), ub.as_str()),
-                        ("A", "D", "A", "D")
-                    );
-                    assert!((pitch - o.pitch).abs() <= 0.0551, "{} vs {}", p.lines[i], o.pitch);
-                    assert!((roll - o.roll).abs() <= 0.0551, "{} vs {}", p.lines[i], o.roll);
-                    xdr += 1;
-                }
-                // Tilt withheld: invalid, or the accelerometer rejected for long (bit 7).
-                (None, None) => assert!(!settled || o.status & 0x80 != 0, "{}", p.lines[i]),
-                _ => panic!("pitch without roll: {}", p.lines[i]),
-            }
-            // Signal K's parser has no XDR handler (docs/marine.md says so).
-            assert_eq!(p.signalk[i], ["null"], "{}", p.lines[i]);
-            let (td, depth, ud) = t(":DEPTH").expect("depth");
-            assert_eq!((td.as_str(), ud.as_str()), ("D", "M"));
-            assert!((depth - o.depth.expect("depth in $PINAH")).abs() < 1e-9);
-            assert!((depth - 2.5).abs() < 0.051, "the emulated depth: {}", p.lines[i]);
-        }
-    }
+    let n = check_agreement(&p);
+    assert!(n.outputs > 200, "{n:?}");
     // Most outputs carry each sentence (the magnetometer references the heading within the
     // first seconds).
-    let n = outs.len();
-    for (name, count) in [("HDT", hdt), ("HDG", hdg), ("HDM", hdm), ("ROT", rot), ("XDR", xdr)] {
-        assert!(count > n * 3 / 4, "{name} in {count} of {n} outputs");
+    for (name, count) in
+        [("HDT", n.hdt), ("HDG", n.hdg), ("HDM", n.hdm), ("ROT", n.rot), ("XDR", n.xdr)]
+    {
+        assert!(count > n.outputs * 3 / 4, "{name} in {count} of {n:?}");
     }
 }
 
