@@ -341,3 +341,11 @@ fn print_record_size() {
     save(&mut probe, &PipelineSettings::default()).unwrap();
     println!("payload {len} record {} steps {}", HEADER_LEN + padded(len) + CRC_LEN, probe.steps);
 }
+
+/// The record's size with the current registry (`docs/commands.md` quotes it).
+#[test]
+fn record_size_of_the_current_registry() {
+    let (len, count) = payload_size(&PipelineSettings::default());
+    assert_eq!((count, len), (74, 537));
+    assert_eq!(HEADER_LEN + padded(len) + CRC_LEN, 554);
+}
