@@ -3,7 +3,9 @@
 #  - host toolchain components (rustfmt, clippy) when rustup manages the toolchain;
 #  - the thumbv7m-none-eabi route (scripts/setup-thumb.sh);
 #  - qemu-system-arm for the emulated runs;
-#  - gcc-arm-none-eabi, for libgcc's soft-float routines (tools/soft_float.rs).
+#  - gcc-arm-none-eabi, for libgcc's soft-float routines (tools/soft_float.rs);
+#  - node, npm and python3's venv, then the real NMEA clients of the marine tests (pynmea2,
+#    Signal K's parser) under target/ (scripts/marine-clients).
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 
@@ -39,3 +41,16 @@ if [ -z "${AHRS_LIBGCC:-}" ] && [ "${AHRS_SOFTFLOAT:-}" != builtins ] \
   apt_install gcc-arm-none-eabi \
     || log "could not install gcc-arm-none-eabi: thumb builds fall back to compiler-builtins' soft-float (scripts/cycle-count --check will fail against the libgcc baseline)"
 fi
+
+# The marine tests read the device's sentences with real clients (ahrs-tool/tests/marine.rs):
+# node and npm for Signal K's parser, python3's venv for pynmea2; both packages from their
+# registries into target/ (scripts/marine-clients, pinned in tools/marine/).
+if ! command -v node >/dev/null 2>&1 || ! command -v npm >/dev/null 2>&1; then
+  log "installing nodejs and npm"
+  apt_install nodejs npm
+fi
+if ! python3 -c 'import ensurepip, venv' >/dev/null 2>&1; then
+  log "installing python3-venv"
+  apt_install python3-venv
+fi
+"$root/scripts/marine-clients"

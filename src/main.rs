@@ -53,7 +53,7 @@ mod firmware {
 
     use cortex_m::peripheral::DWT;
     #[cfg(feature = "serial-commands")]
-    use ekf_core::{AttitudeFilter, ImuSample};
+    use ekf_core::ImuSample;
     #[cfg(not(feature = "serial-commands"))]
     use inemo_ahrs::pipeline::PipelineSettings;
     use inemo_ahrs::supervision::{
@@ -532,7 +532,7 @@ mod firmware {
                     }
                 }
                 if let Some(yaw) = pending.yaw {
-                    pipeline.ekf_mut().set_yaw(yaw);
+                    pipeline.set_yaw(yaw);
                 }
 
                 let sample =
@@ -540,6 +540,7 @@ mod firmware {
                 let step = pipeline.step(&inputs);
                 let tx = &mut *cx.local.tx;
                 cx.shared.cmd.lock(|c| {
+                    c.device.set_heading_ref(step.heading_ref);
                     let mut out = c.device.on_cycle(&inputs, &sample);
                     c.record(out.reply.take(), out.action.take());
                     if raw {

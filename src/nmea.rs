@@ -1,6 +1,7 @@
 //! NMEA 0183 output: a fixed-capacity sentence buffer, the checksum, the Teledyne RDI
-//! attitude sentence `$PRDID`, the proprietary full-state sentence `$PINAH`, and a checker for
-//! received lines.
+//! attitude sentence `$PRDID`, the proprietary full-state sentence `$PINAH`, the standard
+//! marine sentences `HDT`, `HDG`, `HDM`, `ROT` and `XDR` ([`hdt`] and friends), and a checker
+//! for received lines.
 //!
 //! A sentence is `$`, a body (address and comma-separated fields), `*`, two uppercase hex
 //! digits of the XOR of every byte between `$` and `*`, and `\r\n`; at most 82 characters in
@@ -25,24 +26,29 @@
 //!    with w ≥ 0 is sent, so w carries no sign.
 //! 5. qx, 6. qy, 7. qz: 4 decimals, [−1, 1]; quaternion vector part. `q` rotates body (FRD)
 //!    vectors into NED.
-//! 8. depth: m, 1 decimal, −99.9 to 999.9; below the zeroed surface, positive down; empty when
+//! 8. depth: m, 1 decimal, −9.9 to 999.9; below the zeroed surface, positive down; empty when
 //!    unknown.
-//! 9. status: 5 uppercase hex digits; bits 0–15 are the cycle's `ekf_core::Flags`, bits 16–19
-//!    board bits ([`Status`]: 16 I²C fault, 17 ADC fault, 18 gyro rail, 19 depth rail).
+//! 9. status: 6 uppercase hex digits; bits 0–15 are the cycle's `ekf_core::Flags`, bits 16–19
+//!    board bits ([`Status`]: 16 I²C fault, 17 ADC fault, 18 gyro rail, 19 depth rail), bits
+//!    20–21 the heading reference (20: true north by the operator's `YAW`, 21: true north by
+//!    the magnetometer; neither: relative).
 //! 10. cycle: µs, integer, 0–9999; time the filter cycle took (9999: 9999 µs or longer).
 //!
 //! Signs: `-` only (no `+`). A field is empty when its value is NaN or infinite; a quaternion
-//! component beyond ±1.0000 and a depth outside −99.9 to 999.9 m are empty too. Example
-//! (level, heading east, 12.3 m, accelerometer used and at rest, 1.234 ms):
-//! `$PINAH,0.00,0.00,90.00,0.7071,0.0000,0.0000,0.7071,12.3,00300,1234*hh`.
+//! component beyond ±1.0000 and a depth outside −9.9 to 999.9 m are empty too. Example
+//! (level, heading east, 12.3 m, accelerometer used and at rest, 1.234 ms, heading relative):
+//! `$PINAH,0.00,0.00,90.00,0.7071,0.0000,0.0000,0.7071,12.3,000300,1234*hh`.
 //!
 //! The worst case, every field at its widest, is exactly 82 characters:
-//! `$PINAH,-179.99,-89.99,-179.99,0.1234,-0.9876,-0.5432,-1.0000,-99.9,FFFFF,9999*08\r\n`.
+//! `$PINAH,-179.99,-89.99,-179.99,0.1234,-0.9876,-0.5432,-1.0000,-9.9,2FFFFF,9999*03\r\n`.
 //! That budget is why the quaternion has 4 decimals (1e−4 ≈ 0.01° of rotation, the Euler
 //! fields' resolution), the depth 1 decimal (the default 400 m sensor resolves about 0.1 m per
-//! ADC count) and the cycle time 4 digits.
+//! ADC count) and down to −9.9 m only (the sixth status digit, the heading reference, took
+//! the place of the second digit of a negative depth: a depth above the zeroed surface is an
+//! offset), and the cycle time 4 digits.
 
 mod error;
+mod marine;
 mod number;
 mod pinab;
 mod pinah;
@@ -52,6 +58,7 @@ mod status;
 mod verify;
 
 pub use error::NmeaError;
+pub use marine::{hdg, hdm, hdt, rot, xdr};
 pub use number::{round_scaled, AngleRange, Sign, MAX_DECIMALS};
 pub use pinab::pinab;
 pub use pinah::{pinah, PinahData, PINAH_CYCLE_MAX_US};

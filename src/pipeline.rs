@@ -6,8 +6,9 @@
 
 use ekf_core::{
     conditioning::{Conditioner, ConditioningSettings},
+    mathf,
     settings::Settings,
-    AttitudeFilter, Ekf, Euler, Quaternion, Vec3, GRAVITY,
+    AttitudeFilter, Ekf, Euler, Flags, Quaternion, Vec3, GRAVITY,
 };
 
 use crate::{
@@ -17,18 +18,69 @@ use crate::{
     registry::{self, Part},
 };
 
-/// Which sentences go out.
+/// Which sentences go out, and the talker of the standard ones.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct SentenceSet {
     /// `$PRDID` (pitch, roll, heading; RDI convention). Default on.
     pub prdid: bool,
     /// `$PINAH` (full state). Default on.
     pub pinah: bool,
+    /// `$--HDT` (true heading; only while the heading is referenced to true north). Default
+    /// off.
+    pub hdt: bool,
+    /// `$--HDG` (magnetic heading and variation; only with the magnetometer). Default off.
+    pub hdg: bool,
+    /// `$--HDM` (magnetic heading; only with the magnetometer). Default off.
+    pub hdm: bool,
+    /// `$--ROT` (rate of turn). Default off.
+    pub rot: bool,
+    /// `$--XDR` (pitch, roll, depth). Default off.
+    pub xdr: bool,
+    /// Talker identifier of the standard sentences ([`registry::talker_code`]). Default `HC`.
+    pub talker: u16,
 }
 
 impl Default for SentenceSet {
     fn default() -> Self {
-        SentenceSet { prdid: true, pinah: true }
+        SentenceSet {
+            prdid: true,
+            pinah: true,
+            hdt: false,
+            hdg: false,
+            hdm: false,
+            rot: false,
+            xdr: false,
+            talker: registry::talker_code(*b"HC"),
+        }
+    }
+}
+
+/// What the heading is referenced to.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum HeadingRef {
+    /// Relative: integrated from the gyros since the start (from `init.yaw0`), not tied to
+    /// north.
+    #[default]
+    Relative,
+    /// True north, set by the operator (`YAW`, a true heading); the gyros carry it since.
+    True,
+    /// True north from the magnetometer (magnetic heading plus `mag.declination`).
+    Magnetic,
+}
+
+impl HeadingRef {
+    /// The letter sent in `$PINAH` and `STATUS`: `R`, `T` or `M`.
+    pub const fn letter(self) -> &'static str {
+        match self {
+            HeadingRef::Relative => "R",
+            HeadingRef::True => "T",
+            HeadingRef::Magnetic => "M",
+        }
+    }
+
+    /// True when the heading is referenced to true north (`HDT` may go out).
+    pub const fn is_true(self) -> bool {
+        !matches!(self, HeadingRef::Relative)
     }
 }
 
@@ -104,10 +156,13 @@ pub struct Inputs {
     pub last_cycle_us: u32,
 }
 
-/// Up to two sentences of one cycle, in sending order.
+/// Most sentences of one cycle: `$PRDID`, `$PINAH`, `HDT`, `HDG`, `HDM`, `ROT`, `XDR`.
+pub const MAX_SENTENCES: usize = 7;
+
+/// The sentences of one cycle, in sending order.
 #[derive(Clone, Debug, Default)]
 pub struct Sentences {
-    items: [Option<Sentence>; 2],
+    items: [Option<Sentence>; MAX_SENTENCES],
 }
 
 impl Sentences {
@@ -128,6 +183,32 @@ pub struct Step {
     pub depth_m: Option<f32>,
     /// Sentences to send now (empty between outputs).
     pub sentences: Sentences,
+    /// What the heading is referenced to.
+    pub heading_ref: HeadingRef,
+}
+
+/// Estimator flags that make the attitude untrustworthy for the cycle: initialising, a bad or
+/// saturated gyro sample, a time gap, a state reset.
+const ATTITUDE_BAD_FLAGS: u32 = (Flags::INITIALISING.0
+    | Flags::GYRO_INVALID.0
+    | Flags::TIME_GAP.0
+    | Flags::GYRO_SATURATED.0
+    | Flags::HEALTH_RESET.0) as u32;
+/// Board bits that make the attitude untrustworthy: no or dropped ADC frames (the gyros),
+/// the gyro conversion at a rail.
+const ATTITUDE_BAD_BOARD: u32 = Status::ADC_FAULT.0 | Status::GYRO_RAIL.0;
+
+/// True when nothing in `status` (the flags and board bits of every cycle since the last
+/// output, OR-ed) makes the attitude untrustworthy: the standard sentences without a status
+/// field are sent, `ROT` says `A`.
+pub const fn attitude_valid(status: Status) -> bool {
+    status.0 & (ATTITUDE_BAD_FLAGS | ATTITUDE_BAD_BOARD) == 0
+}
+
+/// True when the tilt (pitch, roll) is trustworthy: [`attitude_valid`], and the accelerometer
+/// has not been rejected for longer than the long-rejection time.
+pub const fn tilt_valid(status: Status) -> bool {
+    attitude_valid(status) && status.0 & Flags::ACCEL_REJECT_LONG.0 as u32 == 0
 }
 
 /// The data path. See the module documentation.
@@ -138,6 +219,12 @@ pub struct Pipeline {
     ekf: Ekf,
     cycle: u32,
     last_depth: Option<f32>,
+    heading_ref: HeadingRef,
+    /// Status bits of every cycle since the last output.
+    interval_status: Status,
+    /// Yaw at the last output (rad) and the time since, s: the rate of turn.
+    rot_yaw: Option<f32>,
+    rot_time_s: f32,
 }
 
 impl Pipeline {
@@ -149,7 +236,31 @@ impl Pipeline {
             ekf: Ekf::new(settings.filter),
             cycle: 0,
             last_depth: None,
+            heading_ref: HeadingRef::Relative,
+            interval_status: Status::NONE,
+            rot_yaw: None,
+            rot_time_s: 0.0,
         }
+    }
+
+    /// What the heading is referenced to.
+    pub fn heading_ref(&self) -> HeadingRef {
+        self.heading_ref
+    }
+
+    /// The operator's true heading (`YAW`), rad: the estimator's yaw becomes `yaw` and the
+    /// heading is referenced to true north (unless the magnetometer references it). A
+    /// non-finite value changes nothing.
+    pub fn set_yaw(&mut self, yaw: f32) {
+        if !yaw.is_finite() {
+            return;
+        }
+        self.ekf.set_yaw(yaw);
+        if self.heading_ref != HeadingRef::Magnetic {
+            self.heading_ref = HeadingRef::True;
+        }
+        // The jump is not a turn.
+        self.rot_yaw = None;
     }
 
     /// The settings in use.
@@ -211,12 +322,35 @@ impl Pipeline {
 
         let flags = self.ekf.update(&sample);
         status.insert(Status::from_flags(flags));
+        let mag_on = self.settings.filter.mag.enabled;
+        if mag_on && flags.contains(Flags::MAG_USED) {
+            self.heading_ref = HeadingRef::Magnetic;
+        } else if !mag_on && self.heading_ref == HeadingRef::Magnetic {
+            // The gyros carry the referenced heading on, as after `YAW`.
+            self.heading_ref = HeadingRef::True;
+        }
+        self.interval_status |= status;
+        if inputs.dt.is_finite() && inputs.dt > 0.0 {
+            self.rot_time_s += inputs.dt;
+        }
 
         let attitude = self.ekf.attitude();
         let mut sentences = Sentences::default();
         if self.cycle % self.settings.output_divider() == 0 {
             let euler = Euler::from_quaternion(attitude);
-            if self.settings.sentences.prdid {
+            let set = self.settings.sentences;
+            let valid = attitude_valid(self.interval_status);
+            let tilt_ok = tilt_valid(self.interval_status);
+            // The rate of turn: the heading's change since the last output over the time.
+            let rate = match self.rot_yaw {
+                Some(prev) if self.rot_time_s > 0.0 => {
+                    Some(mathf::wrap_pi(euler.yaw - prev) / self.rot_time_s)
+                }
+                _ => None,
+            };
+            self.rot_yaw = Some(euler.yaw);
+            self.rot_time_s = 0.0;
+            if set.prdid && valid {
                 sentences.items[0] = nmea::prdid(&euler).ok();
             }
             if self.settings.sentences.pinah {
@@ -226,12 +360,37 @@ impl Pipeline {
                     depth_m: self.last_depth,
                     status,
                     cycle_us: inputs.last_cycle_us,
+                    heading_ref: self.heading_ref,
                 };
                 sentences.items[1] = nmea::pinah(&data).ok();
             }
+            let talker = set.talker;
+            if set.hdt && valid && self.heading_ref.is_true() {
+                sentences.items[2] = nmea::hdt(talker, euler.yaw).ok();
+            }
+            // Magnetic heading = true heading − declination (magnetic north east of true).
+            let declination = self.settings.filter.mag.declination;
+            let magnetic = valid && self.heading_ref == HeadingRef::Magnetic;
+            if set.hdg && magnetic {
+                sentences.items[3] = nmea::hdg(talker, euler.yaw - declination, declination).ok();
+            }
+            if set.hdm && magnetic {
+                sentences.items[4] = nmea::hdm(talker, euler.yaw - declination).ok();
+            }
+            if set.rot {
+                sentences.items[5] = nmea::rot(talker, rate, valid && rate.is_some()).ok();
+            }
+            if set.xdr {
+                let tilt = tilt_ok.then_some((euler.pitch, euler.roll));
+                let depth_ok = !self.interval_status.contains(Status::DEPTH_RAIL)
+                    && !self.interval_status.contains(Status::ADC_FAULT);
+                let depth = self.last_depth.filter(|_| depth_ok);
+                sentences.items[6] = nmea::xdr(talker, tilt, depth).and_then(Result::ok);
+            }
+            self.interval_status = Status::NONE;
         }
         self.cycle = self.cycle.wrapping_add(1);
-        Step { status, attitude, depth_m: depth, sentences }
+        Step { status, attitude, depth_m: depth, sentences, heading_ref: self.heading_ref }
     }
 
     /// The conditioned sample (rad/s, m/s², µT, body FRD — what the estimator is fed) that
@@ -271,6 +430,9 @@ impl Pipeline {
             let mut ekf = Ekf::new(settings.filter);
             if self.ekf.is_initialised() {
                 ekf.set_attitude(self.ekf.attitude(), self.ekf.gyro_bias() - shift);
+            } else {
+                // The window starts again from `init.yaw0`.
+                self.heading_ref = HeadingRef::Relative;
             }
             self.ekf = ekf;
         }
@@ -282,7 +444,7 @@ impl Pipeline {
 mod tests {
     use super::*;
     use crate::nmea::verify;
-    use ekf_core::{mathf::deg, Flags};
+    use ekf_core::mathf::deg;
 
     /// A flat, still board, face up: the LSM303DLH reads +1 g on its z axis.
     const FLAT: [f32; 3] = [0.0, 0.0, 1.0];
@@ -337,7 +499,8 @@ mod tests {
 
     #[test]
     fn output_rate_divides_the_filter_rate_and_both_sentences_verify() {
-        let s = PipelineSettings { output_rate_hz: 5, ..PipelineSettings::default() };
+        let mut s = PipelineSettings { output_rate_hz: 5, ..PipelineSettings::default() };
+        s.filter.init.window_s = 0.0;
         let mut p = Pipeline::new(s);
         let mut outputs = 0;
         for _ in 0..100 {
@@ -407,5 +570,246 @@ mod tests {
         assert_eq!(step.depth_m, None);
         // The last good depth is kept for the output.
         assert!((p.depth_m().unwrap() - expect).abs() < 1e-3);
+    }
+
+    /// Every sentence on, a 1 s window.
+    fn all_on() -> PipelineSettings {
+        let mut s = PipelineSettings::default();
+        s.filter.init.window_s = 1.0;
+        s.sentences =
+            SentenceSet { hdt: true, hdg: true, hdm: true, rot: true, xdr: true, ..s.sentences };
+        s
+    }
+
+    /// The bodies of a step's sentences.
+    fn bodies(step: &Step) -> Vec<String> {
+        step.sentences.iter().map(|s| verify(s.as_bytes()).unwrap().to_string()).collect()
+    }
+
+    /// Bits 20–21 of `$PINAH`'s status word: the heading reference.
+    fn pinah_ref(body: &str) -> u32 {
+        let status = body.split(',').nth(9).unwrap();
+        assert_eq!(status.len(), 6);
+        (u32::from_str_radix(status, 16).unwrap() >> 20) & 3
+    }
+
+    fn with_prefix<'a>(b: &'a [String], prefix: &str) -> Option<&'a str> {
+        b.iter().find(|x| x.starts_with(prefix)).map(String::as_str)
+    }
+
+    fn still(adc_rates: [f32; 3]) -> Inputs {
+        Inputs {
+            dt: 0.02,
+            adc: Some(still_adc(adc_rates)),
+            accel_g: Some(FLAT),
+            ..Inputs::default()
+        }
+    }
+
+    #[test]
+    fn standard_sentences_wait_for_a_valid_attitude_and_a_true_heading() {
+        let mut p = Pipeline::new(all_on());
+        // The first output, initialising: PINAH (its status says so), ROT with V, and XDR
+        // with the depth only.
+        let b = bodies(&p.step(&still([0.0; 3])));
+        assert_eq!(b.len(), 3, "{b:?}");
+        assert!(b[0].starts_with("PINAH,") && pinah_ref(&b[0]) == 0, "{b:?}");
+        assert_eq!(b[1], "HCROT,,V");
+        assert!(b[2].starts_with("HCXDR,D,") && b[2].ends_with(",M,DEPTH"), "{b:?}");
+        let mut last = Vec::new();
+        for _ in 0..99 {
+            let b = bodies(&p.step(&still([0.0; 3])));
+            if !b.is_empty() {
+                last = b;
+            }
+        }
+        // Initialised, heading relative: no HDT; no HDG/HDM without the magnetometer.
+        assert!(!p.ekf().last_flags().contains(Flags::INITIALISING));
+        assert_eq!(p.heading_ref(), HeadingRef::Relative);
+        assert!(with_prefix(&last, "PRDID,").is_some(), "{last:?}");
+        assert_eq!(with_prefix(&last, "HCROT,"), Some("HCROT,0.0,A"));
+        assert_eq!(
+            with_prefix(&last, "HCXDR,").map(|x| x
+                .split(',')
+                .take(10)
+                .collect::<Vec<_>>()
+                .join(",")),
+            Some("HCXDR,A,0.0,D,PTCH,A,0.0,D,ROLL,D".into())
+        );
+        assert!(with_prefix(&last, "HCHDT").is_none() && with_prefix(&last, "HCHD").is_none());
+        // The operator's true heading: HDT goes out, PINAH says T.
+        p.set_yaw(deg(-30.0));
+        assert_eq!(p.heading_ref(), HeadingRef::True);
+        let mut b = Vec::new();
+        while b.is_empty() {
+            b = bodies(&p.step(&still([0.0; 3])));
+        }
+        assert_eq!(with_prefix(&b, "HCHDT,"), Some("HCHDT,330.0,T"));
+        assert_eq!(pinah_ref(with_prefix(&b, "PINAH,").unwrap()), 1);
+        // The jump of `YAW` is not a turn: the first rate after it is unknown.
+        assert_eq!(with_prefix(&b, "HCROT,"), Some("HCROT,,V"));
+        assert!(with_prefix(&b, "HCHDG").is_none() && with_prefix(&b, "HCHDM").is_none());
+        // The talker follows the setting.
+        let mut s = *p.settings();
+        s.sentences.talker = registry::talker_code(*b"II");
+        p.apply_settings(s);
+        let mut b = Vec::new();
+        while b.is_empty() {
+            b = bodies(&p.step(&still([0.0; 3])));
+        }
+        assert_eq!(with_prefix(&b, "IIHDT,"), Some("IIHDT,330.0,T"));
+        assert!(with_prefix(&b, "IIROT,").is_some() && with_prefix(&b, "IIXDR,").is_some());
+        // A filter setting changed during the window restarts it from `init.yaw0`: relative.
+        let mut q = Pipeline::new(all_on());
+        q.set_yaw(deg(10.0));
+        assert_eq!(q.heading_ref(), HeadingRef::True);
+        let mut s = *q.settings();
+        s.filter.gate.norm_tolerance = 0.2;
+        q.apply_settings(s);
+        assert_eq!(q.heading_ref(), HeadingRef::Relative);
+    }
+
+    #[test]
+    fn a_fault_in_the_interval_withholds_the_sentences_without_status() {
+        let mut s = all_on();
+        s.filter.init.window_s = 0.0;
+        let mut p = Pipeline::new(s);
+        p.set_yaw(0.0);
+        // Outputs every 5 cycles (10 Hz of 50), the first at the first cycle.
+        for _ in 0..6 {
+            p.step(&still([0.0; 3]));
+        }
+        // One ADC frame missing in the interval (not at the output's cycle).
+        let mut b = Vec::new();
+        for k in 0..5 {
+            let inputs =
+                if k == 1 { Inputs { adc: None, ..still([0.0; 3]) } } else { still([0.0; 3]) };
+            b.extend(bodies(&p.step(&inputs)));
+        }
+        assert_eq!(b.len(), 2, "{b:?}");
+        assert!(b[0].starts_with("PINAH,"));
+        assert!(b[1].starts_with("HCROT,") && b[1].ends_with(",V"), "{b:?}");
+        // The next interval is clean again.
+        let mut b = Vec::new();
+        for _ in 0..5 {
+            b.extend(bodies(&p.step(&still([0.0; 3]))));
+        }
+        assert_eq!(b.len(), 5, "{b:?}");
+        // The gyro at a rail (saturated): withheld too.
+        let mut b = Vec::new();
+        for _ in 0..5 {
+            b.extend(bodies(&p.step(&Inputs { board: Status::GYRO_RAIL, ..still([0.0; 3]) })));
+        }
+        assert_eq!(b.len(), 3, "{b:?}");
+        assert!(b[1].ends_with(",V") && b[2].starts_with("HCXDR,D,"), "{b:?}");
+        // The depth at its rail: XDR keeps pitch and roll, drops the depth.
+        let mut b = Vec::new();
+        for _ in 0..5 {
+            b.extend(bodies(&p.step(&Inputs { board: Status::DEPTH_RAIL, ..still([0.0; 3]) })));
+        }
+        let x = with_prefix(&b, "HCXDR,").unwrap();
+        assert!(x.ends_with(",D,ROLL"), "{x}");
+    }
+
+    #[test]
+    fn rate_of_turn_is_the_heading_rate_in_degrees_per_minute() {
+        let mut s = all_on();
+        s.filter.init.window_s = 0.0;
+        s.filter.rest.enabled = false;
+        let mut p = Pipeline::new(s);
+        p.step(&still([0.0; 3]));
+        // 10 °/s about body z (down): the yaw gyro's output falls with the default map.
+        let mut rates = Vec::new();
+        for _ in 0..100 {
+            let b = bodies(&p.step(&still([0.0, 0.0, -10.0])));
+            if let Some(r) = with_prefix(&b, "HCROT,") {
+                rates.push(r.to_string());
+            }
+        }
+        // After the first interval (trapezoidal start), 600 °/min, bow to starboard.
+        for r in &rates[2..] {
+            let v: f32 = r.split(',').nth(1).unwrap().parse().unwrap();
+            assert!((v - 600.0).abs() < 1.0, "{r}");
+            assert!(r.ends_with(",A"));
+        }
+        // The other way: negative.
+        let mut last = String::new();
+        for _ in 0..20 {
+            let b = bodies(&p.step(&still([0.0, 0.0, 5.0])));
+            if let Some(r) = with_prefix(&b, "HCROT,") {
+                last = r.to_string();
+            }
+        }
+        let v: f32 = last.split(',').nth(1).unwrap().parse().unwrap();
+        assert!((v + 300.0).abs() < 1.0, "{last}");
+    }
+
+    #[test]
+    fn the_magnetometer_references_the_heading_hdg_hdm_and_hdt_agree() {
+        let mut s = all_on();
+        s.filter.init.window_s = 0.0;
+        s.filter.mag.enabled = true;
+        let mut p = Pipeline::new(s);
+        // Level, bow to magnetic north: the field in NED is (F cos dip, 0, F sin dip).
+        let m = &s.filter.mag;
+        let ned = Vec3::new(m.field_ut * m.dip.cos(), 0.0, m.field_ut * m.dip.sin());
+        let sensor = board::MAG_AXES.inverse().apply(ned);
+        let mut b = Vec::new();
+        for _ in 0..500 {
+            let step = p.step(&Inputs { mag_ut: Some(sensor.to_array()), ..still([0.0; 3]) });
+            if step.sentences.iter().next().is_some() {
+                b = bodies(&step);
+            }
+        }
+        assert_eq!(p.heading_ref(), HeadingRef::Magnetic);
+        // Magnetic heading 0, declination −25.5° (west): true heading 334.5°.
+        assert_eq!(with_prefix(&b, "HCHDM,"), Some("HCHDM,0.0,M"), "{b:?}");
+        assert_eq!(with_prefix(&b, "HCHDG,"), Some("HCHDG,0.0,,,25.5,W"));
+        assert_eq!(with_prefix(&b, "HCHDT,"), Some("HCHDT,334.5,T"));
+        assert_eq!(pinah_ref(with_prefix(&b, "PINAH,").unwrap()), 2);
+        // The magnetometer switched off: the gyros carry the true heading on.
+        let mut s2 = *p.settings();
+        s2.filter.mag.enabled = false;
+        p.apply_settings(s2);
+        let mut b = Vec::new();
+        for _ in 0..5 {
+            b.extend(bodies(&p.step(&still([0.0; 3]))));
+        }
+        assert_eq!(p.heading_ref(), HeadingRef::True);
+        assert!(with_prefix(&b, "HCHDT,").is_some() && with_prefix(&b, "HCHDM").is_none());
+    }
+
+    /// The longest output (every sentence at its widest) and the highest output rate at which
+    /// 115200 baud (11,520 bytes/s, 8N1) carries it: the figures of `docs/marine.md`.
+    #[test]
+    fn longest_output_and_the_rate_the_serial_line_carries() {
+        let t = registry::talker_code(*b"HC");
+        let worst = Euler::new(deg(-179.99), deg(-89.99), deg(-179.99));
+        let pinah = nmea::pinah(&PinahData {
+            euler: worst,
+            quaternion: Quaternion::new(0.1234, -0.9876, -0.5432, -1.0),
+            depth_m: Some(-9.9),
+            status: Status(u32::MAX),
+            cycle_us: u32::MAX,
+            heading_ref: HeadingRef::Magnetic,
+        })
+        .unwrap();
+        let lens = [
+            nmea::prdid(&worst).unwrap().len(),
+            pinah.len(),
+            nmea::hdt(t, deg(359.9)).unwrap().len(),
+            nmea::hdg(t, deg(359.9), deg(-179.9)).unwrap().len(),
+            nmea::hdm(t, deg(359.9)).unwrap().len(),
+            nmea::rot(t, Some(deg(-1666.0)), true).unwrap().len(),
+            nmea::xdr(t, Some((deg(-89.9), deg(-179.9))), Some(9999.9)).unwrap().unwrap().len(),
+        ];
+        assert_eq!(lens, [33, 82, 19, 27, 19, 22, 59]);
+        let total: usize = lens.iter().sum();
+        assert_eq!(total, 261);
+        // Bytes per second at 115200 baud, 10 bits a byte.
+        let line = board::USART_BAUD as usize / 10;
+        assert_eq!(line / total, 44);
+        // The default output (PRDID and PINAH) at the highest rate, 50 Hz.
+        assert!((lens[0] + lens[1]) * 50 <= line);
     }
 }

@@ -14,7 +14,7 @@ use std::{
     time::{Duration, Instant},
 };
 
-use ekf_core::{AttitudeFilter, Vec3, GRAVITY};
+use ekf_core::{Vec3, GRAVITY};
 use host_tests::sim::{Scenario, SimSample, Simulator};
 use inemo_ahrs::{
     adc::AdcMean,
@@ -42,6 +42,8 @@ pub struct Options {
     /// (a cooperative operator), back to the scenario on any other command (`ACAL,CLEAR`,
     /// the `SET`s of the fit).
     pub follow_acal: bool,
+    /// Simulate the magnetometer (the default `mag.*` settings' field).
+    pub mag: bool,
 }
 
 /// A pseudo-terminal: the master side (ours) and the slave's path (the tool's).
@@ -101,6 +103,7 @@ struct Board {
     seed: u64,
     rate_hz: f64,
     sim: Simulator,
+    mag: bool,
     depth_m: f32,
     /// Forced raw accelerometer direction (g, sensor axes) while a calibration position is held.
     pose: Option<Vec3>,
@@ -114,25 +117,25 @@ fn scenario_by_name(name: &str) -> Option<Scenario> {
 }
 
 impl Board {
-    fn new(scenario: Scenario, seed: u64, rate_hz: f64, depth_m: f32) -> Self {
-        let sim = Self::sim(scenario, seed, rate_hz);
-        Board { scenario, seed, rate_hz, sim, depth_m, pose: None }
+    fn new(scenario: Scenario, seed: u64, rate_hz: f64, depth_m: f32, mag: bool) -> Self {
+        let sim = Self::sim(scenario, seed, rate_hz, mag);
+        Board { scenario, seed, rate_hz, sim, mag, depth_m, pose: None }
     }
 
-    fn sim(scenario: Scenario, seed: u64, rate_hz: f64) -> Simulator {
-        scenario.simulator(rate_hz, Some(1e7), seed, false).0
+    fn sim(scenario: Scenario, seed: u64, rate_hz: f64, mag: bool) -> Simulator {
+        scenario.simulator(rate_hz, Some(1e7), seed, mag).0
     }
 
     fn set_rate(&mut self, rate_hz: f64) {
         self.rate_hz = rate_hz;
-        self.sim = Self::sim(self.scenario, self.seed, rate_hz);
+        self.sim = Self::sim(self.scenario, self.seed, rate_hz, self.mag);
     }
 
     fn next_sample(&mut self) -> SimSample {
         match self.sim.next() {
             Some(s) => s,
             None => {
-                self.sim = Self::sim(self.scenario, self.seed, self.rate_hz);
+                self.sim = Self::sim(self.scenario, self.seed, self.rate_hz, self.mag);
                 self.sim.next().expect("simulator produces samples")
             }
         }
@@ -186,7 +189,10 @@ impl Board {
             dt: (1.0 / self.rate_hz) as f32,
             adc: Some(adc),
             accel_g: Some([lsb(accel_g.x), lsb(accel_g.y), lsb(accel_g.z)]),
-            mag_ut: None,
+            // The magnetometer shares the accelerometer's axes (`board::MAG_AXES`).
+            mag_ut: row
+                .mag
+                .map(|m| board::MAG_AXES.inverse().apply(Vec3::from_array(m)).to_array()),
             last_cycle_us: 1200,
             ..Inputs::default()
         }
@@ -223,7 +229,7 @@ impl Firmware {
                     self.board.set_rate(f64::from(self.device.settings().filter_rate_hz));
                 }
             }
-            Some(Action::SetYaw(yaw)) => self.pipeline.ekf_mut().set_yaw(yaw),
+            Some(Action::SetYaw(yaw)) => self.pipeline.set_yaw(yaw),
             None => {}
         }
     }
@@ -266,6 +272,7 @@ impl Firmware {
         let inputs = self.board.inputs();
         let sample = self.pipeline.conditioned_sample(&inputs);
         let step = self.pipeline.step(&inputs);
+        self.device.set_heading_ref(step.heading_ref);
         let out = self.device.on_cycle(&inputs, &sample);
         let mut bytes = Vec::with_capacity(256);
         if let Some(reply) = &out.reply {
@@ -303,7 +310,7 @@ pub fn run(mut port: File, opts: &Options) -> io::Result<()> {
         pipeline,
         flash,
         assembler: LineAssembler::new(),
-        board: Board::new(scenario, opts.seed, rate, opts.depth_m),
+        board: Board::new(scenario, opts.seed, rate, opts.depth_m, opts.mag),
         follow_acal: opts.follow_acal,
     };
     let mut start = Instant::now();

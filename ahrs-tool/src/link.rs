@@ -81,6 +81,11 @@ impl Link {
         self.buf.clear();
     }
 
+    /// A second handle on the port, for writing from another thread (the bridge).
+    pub fn writer(&self) -> io::Result<Box<dyn SerialPort>> {
+        self.port.try_clone().map_err(io::Error::from)
+    }
+
     /// Write a raw string.
     pub fn write(&mut self, text: &str) -> io::Result<()> {
         self.port.write_all(text.as_bytes())?;

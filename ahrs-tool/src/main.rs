@@ -4,8 +4,10 @@
 //! - `send <port> <COMMAND...>`: one `$PINAC` command, print the `$PINAR` reply;
 //! - `log <port> --out trace.csv`: raw mode into the trace CSV format;
 //! - `calibrate <port>`: interactive six-position accelerometer calibration;
-//! - `emulate --pty`: the firmware library on the host behind a pseudo-terminal.
+//! - `emulate --pty`: the firmware library on the host behind a pseudo-terminal;
+//! - `bridge <port> --udp host[:port] --tcp addr[:port]`: the sentences onto the network.
 
+mod bridge;
 mod emulate;
 mod link;
 mod raw;
@@ -78,6 +80,23 @@ enum Cmd {
         #[arg(long, default_value_t = 2.0)]
         seconds: f64,
     },
+    /// Forward the device's sentences to UDP (OpenCPN, Signal K, a ROV station) and/or to the
+    /// clients of a TCP server, whose lines go back to the device as commands.
+    Bridge {
+        /// Serial port.
+        port: String,
+        /// Send every sentence as a UDP datagram to host[:port] (port 10110 by default; a
+        /// broadcast address works).
+        #[arg(long)]
+        udp: Option<String>,
+        /// Serve TCP clients on addr[:port] (10110 by default): they get the sentences, and
+        /// their lines go to the device (a command body such as `SENT,HDT,1`, or a sentence).
+        #[arg(long)]
+        tcp: Option<String>,
+        /// Stop after this many seconds (default: until interrupted).
+        #[arg(long)]
+        seconds: Option<f64>,
+    },
     /// Run the firmware library on the host behind a pseudo-terminal (or a given port),
     /// fed by the host-tests simulator. Prints the port path on the first line of stdout.
     Emulate {
@@ -104,6 +123,10 @@ enum Cmd {
         /// command received (back to the scenario on any other command).
         #[arg(long)]
         follow_acal: bool,
+        /// Simulate the magnetometer too (the field of the default `mag.*` settings; the
+        /// estimator uses it after `SET,mag.enabled,1`).
+        #[arg(long)]
+        mag: bool,
     },
 }
 
@@ -131,8 +154,13 @@ fn main() -> ExitCode {
         }
         Cmd::Log { port, out, seconds } => log(&port, &out, seconds),
         Cmd::Calibrate { port, seconds } => calibrate(&port, seconds),
-        Cmd::Emulate { pty, port, scenario, speed, depth, seed, follow_acal } => {
-            let opts = emulate::Options { scenario, speed, depth_m: depth, seed, follow_acal };
+        Cmd::Bridge { port, udp, tcp, seconds } => {
+            catch_ctrl_c();
+            let stop = || INTERRUPTED.load(Ordering::SeqCst);
+            bridge::run(&port, udp.as_deref(), tcp.as_deref(), seconds, &stop)
+        }
+        Cmd::Emulate { pty, port, scenario, speed, depth, seed, follow_acal, mag } => {
+            let opts = emulate::Options { scenario, speed, depth_m: depth, seed, follow_acal, mag };
             emulator(pty, port, &opts)
         }
     };
@@ -201,15 +229,26 @@ fn live_line(prdid: Option<&[String]>, pinah: Option<&[String]>) -> String {
         f.and_then(|f| f.get(i)).filter(|s| !s.is_empty()).cloned().unwrap_or_else(|| "-".into())
     };
     match pinah {
-        // $PINAH,<roll>,<pitch>,<yaw>,<qw>,<qx>,<qy>,<qz>,<depth>,<status>,<cycle>
-        Some(_) => format!(
-            "roll {:>8}  pitch {:>7}  yaw {:>8}  depth {:>6} m  status {}",
-            get(pinah, 1),
-            get(pinah, 2),
-            get(pinah, 3),
-            get(pinah, 8),
-            get(pinah, 9)
-        ),
+        // $PINAH,<roll>,<pitch>,<yaw>,<qw>,<qx>,<qy>,<qz>,<depth>,<status>,<cycle>; the
+        // status word's bits 20–21 are the heading reference.
+        Some(_) => {
+            let status = get(pinah, 9);
+            let reference = match u32::from_str_radix(&status, 16).map(|s| (s >> 20) & 3) {
+                Ok(0) => "relative",
+                Ok(1) => "true (YAW)",
+                Ok(2) => "true (magnetometer)",
+                _ => "-",
+            };
+            format!(
+                "roll {:>8}  pitch {:>7}  yaw {:>8}  depth {:>6} m  status {}  heading {}",
+                get(pinah, 1),
+                get(pinah, 2),
+                get(pinah, 3),
+                get(pinah, 8),
+                status,
+                reference
+            )
+        }
         // $PRDID,<pitch>,<roll>,<heading>
         None => format!(
             "roll {:>8}  pitch {:>7}  heading {:>8}",
@@ -424,4 +463,29 @@ fn emulator(pty: bool, port: Option<PathBuf>, opts: &emulate::Options) -> Result
         opts.scenario, opts.speed
     );
     emulate::run(file, opts).map_err(io_err)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn fields(line: &str) -> Vec<String> {
+        line.split(',').map(str::to_string).collect()
+    }
+
+    #[test]
+    fn live_shows_the_heading_reference_from_the_status_word() {
+        let p = |status: &str| {
+            fields(&format!("PINAH,1.00,2.00,3.00,1.0000,0.0000,0.0000,0.0000,2.5,{status},400"))
+        };
+        let line = live_line(None, Some(&p("000300")));
+        assert!(line.contains("status 000300  heading relative"), "{line}");
+        assert!(live_line(None, Some(&p("100300"))).ends_with("heading true (YAW)"));
+        assert!(live_line(None, Some(&p("200300"))).ends_with("heading true (magnetometer)"));
+        assert!(live_line(None, Some(&p(""))).ends_with("heading -"));
+        let prdid = fields("PRDID,+2.00,+1.00,3.00");
+        let words: Vec<String> =
+            live_line(Some(&prdid), None).split_whitespace().map(str::to_string).collect();
+        assert_eq!(words, ["roll", "+1.00", "pitch", "+2.00", "heading", "3.00"]);
+    }
 }

@@ -3,7 +3,9 @@
 
 use std::{
     io::{BufRead, BufReader, Write},
+    net::{TcpListener, TcpStream, UdpSocket},
     process::{Child, Command, Output, Stdio},
+    time::{Duration, Instant},
 };
 
 mod common;
@@ -145,7 +147,7 @@ fn calibrate_six_positions_from_stdin_and_save() {
     let text = common::calibrate(&emu.port);
     assert!(text.contains("Saved: $PINAR,OK,SAVE,A,1"), "{text}");
     let status = stdout(&emu.tool(&["send", "STATUS"]));
-    assert!(status.starts_with("$PINAR,OK,STATUS,A,1,") && status.contains(",3F*"), "{status}");
+    assert!(status.starts_with("$PINAR,OK,STATUS,A,1,") && status.contains(",3F,R*"), "{status}");
     let cal = stdout(&emu.tool(&["send", "GET", "accel_cal.x"]));
     assert!(cal.contains("OK,GET,accel_cal.x,"), "{cal}");
 }
@@ -164,5 +166,91 @@ fn calibrate_quits_on_q_without_changes() {
     let o = child.wait_with_output().unwrap();
     assert_eq!(o.status.code(), Some(2));
     let status = stdout(&emu.tool(&["send", "STATUS"]));
-    assert!(status.contains(",00*"), "{status}");
+    assert!(status.contains(",00,R*"), "{status}");
+}
+
+/// A child process killed on drop.
+struct Killed(Child);
+
+impl Drop for Killed {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+/// The datagrams received on `udp` within `seconds`, each checked as one NMEA sentence.
+fn datagrams(udp: &UdpSocket, seconds: f64) -> Vec<String> {
+    let end = Instant::now() + Duration::from_secs_f64(seconds);
+    let mut out = Vec::new();
+    let mut buf = [0u8; 2048];
+    while Instant::now() < end {
+        if let Ok(n) = udp.recv(&mut buf) {
+            let text = std::str::from_utf8(&buf[..n]).expect("ASCII datagram").to_string();
+            assert!(text.ends_with("\r\n") && text.matches('$').count() == 1, "{text:?}");
+            inemo_ahrs::nmea::verify(text.as_bytes()).expect("checksum");
+            out.push(text.trim_end().to_string());
+        }
+    }
+    out
+}
+
+#[test]
+fn bridge_forwards_sentences_to_udp_and_tcp_and_tcp_commands_to_the_device() {
+    let emu = Emulator::start(&[]);
+    let udp = UdpSocket::bind("127.0.0.1:0").expect("UDP listener");
+    udp.set_read_timeout(Some(Duration::from_millis(100))).unwrap();
+    let udp_to = format!("127.0.0.1:{}", udp.local_addr().unwrap().port());
+    let tcp_at = {
+        let free = TcpListener::bind("127.0.0.1:0").expect("a free port");
+        format!("127.0.0.1:{}", free.local_addr().unwrap().port())
+    };
+    let _bridge = Killed(
+        Command::new(BIN)
+            .args(["bridge", &emu.port, "--udp", &udp_to, "--tcp", &tcp_at, "--seconds", "30"])
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("spawn bridge"),
+    );
+    // Emulated device → bridge → UDP: the default sentences, each a checked datagram.
+    let first = datagrams(&udp, 1.0);
+    assert!(first.iter().filter(|l| l.starts_with("$PINAH,")).count() > 20, "{first:?}");
+    assert!(!first.iter().any(|l| l.starts_with("$HC")), "standard sentences are off by default");
+    // A TCP client: it reads the stream, and its lines are commands to the device.
+    let stream = (0..50)
+        .find_map(|_| {
+            TcpStream::connect(&tcp_at).ok().or_else(|| {
+                std::thread::sleep(Duration::from_millis(50));
+                None
+            })
+        })
+        .expect("the bridge listens");
+    stream.set_read_timeout(Some(Duration::from_secs(3))).unwrap();
+    let mut writer = stream.try_clone().unwrap();
+    let mut reader = BufReader::new(stream);
+    let mut reply_to = |typed: &str, expect: &str| {
+        writer.write_all(typed.as_bytes()).unwrap();
+        let end = Instant::now() + Duration::from_secs(3);
+        let mut line = String::new();
+        while Instant::now() < end {
+            line.clear();
+            if reader.read_line(&mut line).is_err() {
+                break;
+            }
+            if line.starts_with("$PINAR") {
+                assert!(line.starts_with(expect), "{typed:?}: {line}");
+                return;
+            }
+            assert!(line.starts_with('$') && line.ends_with("\r\n"), "{line:?}");
+        }
+        panic!("no reply to {typed:?}");
+    };
+    // Typed as an operator would: a bad command is refused, then the marine sentences go on.
+    reply_to("FLY\n", "$PINAR,ERR,?,unknown-command*");
+    reply_to("$PINAC,SENT,1,1,0,0,0,1,1\r\n", "$PINAR,OK,SENT,1,1,0,0,0,1,1*");
+    // ... which the UDP listener now receives.
+    let after = datagrams(&udp, 1.0);
+    for s in ["$HCROT,", "$HCXDR,", "$PINAH,", "$PINAR,OK,SENT"] {
+        assert!(after.iter().any(|l| l.starts_with(s)), "no {s} in {after:?}");
+    }
 }

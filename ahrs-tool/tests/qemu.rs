@@ -29,7 +29,7 @@ use host_tests::{
 };
 
 mod common;
-use common::{stdout, BIN};
+use common::{clients, stdout, BIN};
 /// Rate of the firmware's filter (default setting) and of the trace, Hz.
 const RATE: f64 = 50.0;
 
@@ -192,7 +192,8 @@ fn wait_until(t: Instant) {
     }
 }
 
-/// The STATUS reply's fields after the verb: source, sequence, reset cause, flags, positions.
+/// The STATUS reply's fields after the verb: source, sequence, reset cause, flags, positions,
+/// heading reference.
 fn status(q: &Qemu) -> Vec<String> {
     let (code, s) = q.send(&["STATUS"]);
     assert_eq!(code, Some(0), "{s}");
@@ -358,6 +359,22 @@ fn tool_against_the_firmware_on_qemu() {
         let want = -30.0 + truth_near(t, 0.0)[0][2] - yaw0;
         assert!(angle_diff(v[2], want).abs() < 1.0, "yaw {} at {t:.2}, want {want}", v[2]);
     }
+
+    // The marine sentences through the real clients (`docs/marine.md`): every sentence on, 2 s
+    // of the stream; the heading is true since `YAW`, no magnetometer in the trace.
+    let (code, r) = q.send(&["SENT,1,1,1,1,1,1,1"]);
+    assert_eq!(code, Some(0), "{r}");
+    assert!(status(&q).last().is_some_and(|r| r == "T"), "heading true after YAW");
+    if let Some(c) = clients::clients_or_skip() {
+        let p = clients::parse(&c, clients::capture(&q.port, 2.0), "qemu");
+        let n = clients::check_agreement(&p);
+        // 10 Hz in real time; ROT's first rate needs the output before it.
+        assert!(n.outputs >= 12, "{n:?}");
+        assert!(n.hdt == n.outputs && n.xdr == n.outputs && n.rot + 1 >= n.outputs, "{n:?}");
+        assert_eq!((n.hdg, n.hdm), (0, 0), "no magnetometer: {n:?}");
+    }
+    let (code, r) = q.send(&["SENT,1,1,0,0,0,0,0"]);
+    assert_eq!(code, Some(0), "{r}");
 
     // A setting round trip (after the attitude checks: an estimator setting changed during
     // the initialisation window restarts the window).

@@ -10,14 +10,15 @@
 use core::sync::atomic::{compiler_fence, Ordering};
 
 use inemo_ahrs::nmea::MAX_SENTENCE_LEN;
+use inemo_ahrs::pipeline::MAX_SENTENCES;
 use stm32f1xx_hal::serial::TxDma2;
 
-/// Buffer for one batch: the two sentences of a cycle at their longest and one command reply.
+/// Buffer for one batch: the sentences of a cycle at their longest and one command reply.
 #[cfg(feature = "serial-commands")]
-pub const TX_BUF_LEN: usize = 3 * MAX_SENTENCE_LEN;
-/// Buffer for one batch: the two sentences of a cycle at their longest.
+pub const TX_BUF_LEN: usize = (MAX_SENTENCES + 1) * MAX_SENTENCE_LEN;
+/// Buffer for one batch: the sentences of a cycle at their longest.
 #[cfg(not(feature = "serial-commands"))]
-pub const TX_BUF_LEN: usize = 2 * MAX_SENTENCE_LEN;
+pub const TX_BUF_LEN: usize = MAX_SENTENCES * MAX_SENTENCE_LEN;
 const _: () = assert!(TX_BUF_LEN <= u16::MAX as usize, "DMA transfer length is 16 bits");
 
 /// The transmitter and its counters.

@@ -9,15 +9,27 @@ use super::reply::{Detail, Out, Reason};
 use crate::adc::DepthReading;
 use crate::nmea::{self, NmeaError, Sentence};
 use crate::persist::{self, Flash, Loaded, SaveError, Source};
-use crate::pipeline::{Inputs, PipelineSettings};
+use crate::pipeline::{HeadingRef, Inputs, PipelineSettings};
 use crate::registry::ext::Ext;
 use crate::registry::{self, number, Kind, Setting, Value, ValueError, SETTINGS};
 
 /// Firmware version reported by `VER`.
 pub const VERSION: &str = env!("CARGO_PKG_VERSION");
 
-/// Most comma-separated fields of a command (address and verb included).
-const MAX_FIELDS: usize = 8;
+/// Most comma-separated fields of a command (address and verb included): `SENT` with its
+/// seven flags.
+const MAX_FIELDS: usize = 9;
+
+/// The sentences `SENT` switches, in the order of its flags, with their settings.
+pub const SENTENCE_SETTINGS: [(&str, &str); 7] = [
+    ("PRDID", "output.prdid"),
+    ("PINAH", "output.pinah"),
+    ("HDT", "output.hdt"),
+    ("HDG", "output.hdg"),
+    ("HDM", "output.hdm"),
+    ("ROT", "output.rot"),
+    ("XDR", "output.xdr"),
+];
 
 /// `GBIAS` duration range, s.
 pub const GBIAS_RANGE_S: (f32, f32) = (1.0, 600.0);
@@ -55,7 +67,7 @@ pub enum Action {
         /// `filter.rate` changed.
         filter_rate_changed: bool,
     },
-    /// Set the yaw now, rad: `pipeline.ekf_mut().set_yaw(yaw)`.
+    /// Set the yaw now, rad (a true heading): `pipeline.set_yaw(yaw)`.
     SetYaw(f32),
 }
 
@@ -178,6 +190,7 @@ pub struct Device {
     depth: Option<DepthReading>,
     depth_age_s: f32,
     clock_us: u64,
+    heading_ref: HeadingRef,
 }
 
 impl Device {
@@ -200,6 +213,7 @@ impl Device {
             depth: None,
             depth_age_s: f32::INFINITY,
             clock_us: 0,
+            heading_ref: HeadingRef::Relative,
         }
     }
 
@@ -218,6 +232,11 @@ impl Device {
     /// attitude sentences).
     pub fn raw_mode(&self) -> bool {
         self.raw
+    }
+
+    /// Note what the pipeline's heading is referenced to (`Step::heading_ref`), for `STATUS`.
+    pub fn set_heading_ref(&mut self, r: HeadingRef) {
+        self.heading_ref = r;
     }
 
     /// The `STATUS` flags ([`STATUS_NO_RECORD`], ...).
@@ -325,9 +344,28 @@ impl Device {
                 self.set_values(name, None, &[("output.rate", args)])
             }
             Verb::Sent => {
-                nargs(2)?;
-                let (a, b) = (args.get(..1).unwrap_or(&[]), args.get(1..2).unwrap_or(&[]));
-                self.set_values(name, None, &[("output.prdid", a), ("output.pinah", b)])
+                // `SENT,<name>,<0|1>`: one sentence by name.
+                let first = arg(0);
+                if args.len() == 2 && !matches!(first, "0" | "1") {
+                    let (label, setting) = SENTENCE_SETTINGS
+                        .iter()
+                        .find(|(n, _)| n.eq_ignore_ascii_case(first))
+                        .ok_or(Reason::Type)?;
+                    let value = args.get(1..2).unwrap_or(&[]);
+                    return self.set_values(name, Some(label), &[(setting, value)]);
+                }
+                // `SENT,<prdid>,<pinah>[,<hdt>,<hdg>,<hdm>,<rot>,<xdr>]`: flags in order.
+                if args.len() != 2 && args.len() != SENTENCE_SETTINGS.len() {
+                    return Err(Reason::Args.into());
+                }
+                let mut items: [(&str, &[&str]); SENTENCE_SETTINGS.len()] =
+                    [("", &[]); SENTENCE_SETTINGS.len()];
+                for (i, (item, (_, setting))) in
+                    items.iter_mut().zip(SENTENCE_SETTINGS.iter()).enumerate()
+                {
+                    *item = (setting, args.get(i..i + 1).unwrap_or(&[]));
+                }
+                self.set_values(name, None, items.get(..args.len()).unwrap_or(&[]))
             }
             Verb::Set => {
                 let (Some(&setting_name), Some(value)) = (args.first(), args.get(1..)) else {
@@ -484,6 +522,7 @@ impl Device {
                 out.field(if printable { cause } else { "?" });
                 out.hex(u32::from(self.status_flags()), 4);
                 out.hex(u32::from(self.acal_seen), 2);
+                out.field(self.heading_ref.letter());
                 Ok((out, None))
             }
         }
@@ -673,7 +712,7 @@ fn parse_in(text: &str, (lo, hi): (f32, f32)) -> Result<Ext, Fail> {
 fn range_detail(s: &Setting) -> Detail {
     match s.kind {
         Kind::F32 | Kind::Vec3 | Kind::U16 => Detail::Range(s.range().0, s.range().1),
-        Kind::Bool | Kind::Axes => Detail::None,
+        Kind::Bool | Kind::Axes | Kind::Talker => Detail::None,
     }
 }
 

@@ -108,6 +108,8 @@ fn corpus() -> Vec<String> {
         "PINAC,ABORT",
         "PINAC,RATE,5",
         "PINAC,SENT,1,0",
+        "PINAC,SENT,1,1,0,0,0,1,1",
+        "PINAC,SENT,HDM,1",
         "PINAC,RAW,1",
         "PINAC,RAW,0",
         "PINAC,SAVE",

@@ -97,16 +97,16 @@ fn version_status_and_list() {
     assert_eq!(r, format!("PINAR,OK,VER,inemo-ahrs,{},1,{}", VERSION, SETTINGS.len()));
     assert!(a.is_none());
     // Both pages invalid at boot: defaults, flagged.
-    assert_eq!(run(&mut d, &mut f, "PINAC,STATUS").0, "PINAR,OK,STATUS,DEFAULTS,,POR,0001,00");
+    assert_eq!(run(&mut d, &mut f, "PINAC,STATUS").0, "PINAR,OK,STATUS,DEFAULTS,,POR,0001,00,R");
     assert_eq!(
         run(&mut d, &mut f, "PINAC,LIST,0").0,
-        "PINAR,OK,LIST,0,68,noise.gyro_var,f32x3,(deg/s)2"
+        "PINAR,OK,LIST,0,74,noise.gyro_var,f32x3,(deg/s)2"
     );
-    assert_eq!(run(&mut d, &mut f, "PINAC,LIST,66").0, "PINAR,OK,LIST,66,68,output.prdid,bool,");
+    assert_eq!(run(&mut d, &mut f, "PINAC,LIST,66").0, "PINAR,OK,LIST,66,74,output.prdid,bool,");
     for i in 0..SETTINGS.len() {
         assert!(run(&mut d, &mut f, &format!("PINAC,LIST,{i}")).0.starts_with("PINAR,OK,LIST,"));
     }
-    assert_eq!(refused(&mut d, &mut f, &cmd("PINAC,LIST,68")), "PINAR,ERR,LIST,range,0,67");
+    assert_eq!(refused(&mut d, &mut f, &cmd("PINAC,LIST,74")), "PINAR,ERR,LIST,range,0,73");
     // Verbs are case-insensitive.
     assert!(run(&mut d, &mut f, "PINAC,ver").0.starts_with("PINAR,OK,VER,"));
     // A reset cause that cannot be sent is shown as `?`.
@@ -130,7 +130,10 @@ fn get_and_set_every_setting() {
             a.is_none()
                 || !matches!(
                     s.kind,
-                    registry::Kind::Bool | registry::Kind::U16 | registry::Kind::Axes
+                    registry::Kind::Bool
+                        | registry::Kind::U16
+                        | registry::Kind::Axes
+                        | registry::Kind::Talker
                 ),
             "{}",
             s.name
@@ -150,7 +153,7 @@ fn get_and_set_every_setting() {
     assert!((d.settings().filter.ekf.yaw_drift_rate - mathf::deg(16.2) / 3600.0).abs() < 1e-10);
     let (r, _) = run(&mut d, &mut f, "PINAC,SET,accel_cal.o,0.01,-0.02,1e-3");
     assert_eq!(r, "PINAR,OK,SET,accel_cal.o,0.01,-0.02,0.001");
-    assert_eq!(run(&mut d, &mut f, "PINAC,STATUS").0, "PINAR,OK,STATUS,DEFAULTS,,POR,0003,00");
+    assert_eq!(run(&mut d, &mut f, "PINAC,STATUS").0, "PINAR,OK,STATUS,DEFAULTS,,POR,0003,00,R");
 }
 
 #[test]
@@ -193,6 +196,16 @@ fn every_error_names_the_problem_and_changes_nothing() {
         (cmd("PINAC,RATE,0"), "PINAR,ERR,RATE,range,1,50"),
         (cmd("PINAC,SENT,1,2"), "PINAR,ERR,SENT,type,bool"),
         (cmd("PINAC,SENT,1"), "PINAR,ERR,SENT,args"),
+        (cmd("PINAC,SENT,1,1,1"), "PINAR,ERR,SENT,args"),
+        (cmd("PINAC,SENT,1,1,1,1,1,1,1,1"), "PINAR,ERR,SENT,args"),
+        (cmd("PINAC,SENT,1,1,1,1,1,1,x"), "PINAR,ERR,SENT,type,bool"),
+        (cmd("PINAC,SENT,GGA,1"), "PINAR,ERR,SENT,type"),
+        (cmd("PINAC,SENT,HDT,2"), "PINAR,ERR,SENT,type,bool"),
+        (cmd("PINAC,SENT,HDT"), "PINAR,ERR,SENT,args"),
+        (cmd("PINAC,SENT,HDT,1,1"), "PINAR,ERR,SENT,args"),
+        (cmd("PINAC,SET,output.talker,H"), "PINAR,ERR,SET,type,talker"),
+        (cmd("PINAC,SET,output.talker,H1X"), "PINAR,ERR,SET,type,talker"),
+        (cmd("PINAC,SET,output.talker,H-"), "PINAR,ERR,SET,type,talker"),
         (cmd("PINAC,RAW,2"), "PINAR,ERR,RAW,type"),
         (cmd("PINAC,ZERO"), "PINAR,ERR,ZERO,no-depth"),
         (cmd("PINAC,GBIAS,0.5"), "PINAR,ERR,GBIAS,range,1,600"),
@@ -271,6 +284,31 @@ fn yaw_rate_sentences_and_raw_mode() {
     assert_eq!(d.settings().output_rate_hz, 25);
     assert_eq!(run(&mut d, &mut f, "PINAC,SENT,0,1").0, "PINAR,OK,SENT,0,1");
     assert!(!d.settings().sentences.prdid && d.settings().sentences.pinah);
+    // Seven flags in the order PRDID, PINAH, HDT, HDG, HDM, ROT, XDR; one by name.
+    let (r, a) = run(&mut d, &mut f, "PINAC,SENT,1,0,1,0,1,0,1");
+    assert_eq!(r, "PINAR,OK,SENT,1,0,1,0,1,0,1");
+    assert!(a.is_some());
+    let s = d.settings().sentences;
+    assert_eq!(
+        [s.prdid, s.pinah, s.hdt, s.hdg, s.hdm, s.rot, s.xdr],
+        [true, false, true, false, true, false, true]
+    );
+    assert_eq!(run(&mut d, &mut f, "PINAC,SENT,rot,1").0, "PINAR,OK,SENT,ROT,1");
+    assert!(d.settings().sentences.rot);
+    assert_eq!(run(&mut d, &mut f, "PINAC,SENT,XDR,0").0, "PINAR,OK,SENT,XDR,0");
+    assert!(!d.settings().sentences.xdr);
+    let (r, a) = run(&mut d, &mut f, "PINAC,SENT,XDR,0");
+    assert_eq!((r.as_str(), a), ("PINAR,OK,SENT,XDR,0", None));
+    assert_eq!(
+        run(&mut d, &mut f, "PINAC,SET,output.talker,ii").0,
+        "PINAR,OK,SET,output.talker,II"
+    );
+    assert_eq!(d.settings().sentences.talker, crate::registry::talker_code(*b"II"));
+    // The heading reference the application notes is in `STATUS`.
+    d.set_heading_ref(crate::pipeline::HeadingRef::True);
+    assert!(run(&mut d, &mut f, "PINAC,STATUS").0.ends_with(",T"));
+    d.set_heading_ref(crate::pipeline::HeadingRef::Magnetic);
+    assert!(run(&mut d, &mut f, "PINAC,STATUS").0.ends_with(",M"));
     // Raw mode: $PINAW every cycle, $PINAX when the depth (or magnetometer) was read.
     let mut n = Noise(1);
     let i = inputs([0.0; 3], [0.0, 0.0, 1.0], &mut n);
@@ -418,7 +456,7 @@ fn six_position_accelerometer_calibration() {
         }
         fit.add_position(pos, Vec3::new(mean[0], mean[1], mean[2]));
     }
-    assert_eq!(run(&mut d, &mut f, "PINAC,STATUS").0, "PINAR,OK,STATUS,DEFAULTS,,POR,0001,3F");
+    assert_eq!(run(&mut d, &mut f, "PINAC,STATUS").0, "PINAR,OK,STATUS,DEFAULTS,,POR,0001,3F,R");
     // The host fits X from the six means and sets it row by row.
     let cal = fit.solve().unwrap();
     for (row, name) in cal.x.iter().zip(["x", "y", "z", "o"]) {
@@ -441,7 +479,7 @@ fn six_position_accelerometer_calibration() {
     }
     assert_eq!(reply.as_deref(), Some("PINAR,ERR,ACAL,position"));
     assert_eq!(run(&mut d, &mut f, "PINAC,ACAL,CLEAR").0, "PINAR,OK,ACAL,CLEAR");
-    assert_eq!(run(&mut d, &mut f, "PINAC,STATUS").0, "PINAR,OK,STATUS,DEFAULTS,,POR,0003,00");
+    assert_eq!(run(&mut d, &mut f, "PINAC,STATUS").0, "PINAR,OK,STATUS,DEFAULTS,,POR,0003,00,R");
 }
 
 #[test]
@@ -450,19 +488,19 @@ fn save_load_reset_and_status() {
     let mut f = SimFlash::new();
     run(&mut d, &mut f, "PINAC,SET,depth.density,998");
     assert_eq!(run(&mut d, &mut f, "PINAC,SAVE").0, "PINAR,OK,SAVE,A,1");
-    assert_eq!(run(&mut d, &mut f, "PINAC,STATUS").0, "PINAR,OK,STATUS,A,1,POR,0001,00");
+    assert_eq!(run(&mut d, &mut f, "PINAC,STATUS").0, "PINAR,OK,STATUS,A,1,POR,0001,00,R");
     run(&mut d, &mut f, "PINAC,SET,depth.density,1000");
     assert_eq!(run(&mut d, &mut f, "PINAC,SAVE").0, "PINAR,OK,SAVE,B,2");
     let (r, a) = run(&mut d, &mut f, "PINAC,RESET");
     assert_eq!(r, "PINAR,OK,RESET");
     assert!(a.is_some());
     assert_eq!(*d.settings(), PipelineSettings::default());
-    assert_eq!(run(&mut d, &mut f, "PINAC,STATUS").0, "PINAR,OK,STATUS,DEFAULTS,,POR,0003,00");
+    assert_eq!(run(&mut d, &mut f, "PINAC,STATUS").0, "PINAR,OK,STATUS,DEFAULTS,,POR,0003,00,R");
     let (r, a) = run(&mut d, &mut f, "PINAC,LOAD");
     assert_eq!(r, "PINAR,OK,LOAD,B,2,0,0");
     assert!(a.is_some());
     assert_eq!(d.settings().depth.water_density_kg_m3, 1000.0);
-    assert_eq!(run(&mut d, &mut f, "PINAC,STATUS").0, "PINAR,OK,STATUS,B,2,POR,0000,00");
+    assert_eq!(run(&mut d, &mut f, "PINAC,STATUS").0, "PINAR,OK,STATUS,B,2,POR,0000,00,R");
     // A reboot finds the same.
     let d2 = Device::new(&persist::load(&f), "WDG");
     assert_eq!(d2.settings(), d.settings());
@@ -571,6 +609,9 @@ fn print_examples() {
         "PINAC,YAW0,-30",
         "PINAC,RATE,5",
         "PINAC,SENT,1,0",
+        "PINAC,SENT,1,1,1,0,0,1,1",
+        "PINAC,SENT,HDT,0",
+        "PINAC,SET,output.talker,II",
         "PINAC,RAW,1",
         "PINAC,RAW,0",
         "PINAC,ZERO",

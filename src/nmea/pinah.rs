@@ -7,6 +7,7 @@ use super::error::NmeaError;
 use super::number::{round_scaled, AngleRange, Sign};
 use super::sentence::Sentence;
 use super::status::Status;
+use crate::pipeline::HeadingRef;
 
 /// Decimals of the Euler angles.
 const ANGLE_DECIMALS: u8 = 2;
@@ -16,11 +17,12 @@ const QUATERNION_DECIMALS: u8 = 4;
 const QUATERNION_MAX_SCALED: i64 = 10_000;
 /// Decimals of the depth.
 const DEPTH_DECIMALS: u8 = 1;
-/// Printed depth range in units of 0.1 m: −99.9 m to 999.9 m.
-const DEPTH_MIN_SCALED: i64 = -999;
+/// Printed depth range in units of 0.1 m: −9.9 m to 999.9 m (a depth above the zeroed
+/// surface is an offset of the sensor: the 82 characters keep a sign and one digit for it).
+const DEPTH_MIN_SCALED: i64 = -99;
 const DEPTH_MAX_SCALED: i64 = 9_999;
 /// Hex digits of the status word.
-const STATUS_DIGITS: u8 = 5;
+const STATUS_DIGITS: u8 = 6;
 /// Largest printed cycle time, µs (4 digits; longer cycles print 9999).
 pub const PINAH_CYCLE_MAX_US: u32 = 9_999;
 
@@ -38,6 +40,8 @@ pub struct PinahData {
     pub status: Status,
     /// Time the filter cycle took, µs.
     pub cycle_us: u32,
+    /// What the heading is referenced to: status bits 20–21 ([`Status::heading_ref`]).
+    pub heading_ref: HeadingRef,
 }
 
 /// Append a quaternion component, or nothing if it is not finite or beyond ±1.0000.
@@ -75,7 +79,9 @@ pub fn pinah(data: &PinahData) -> Result<Sentence, NmeaError> {
         }
     }
     s.push_str(",")?;
-    s.push_hex(data.status.0 & Status::TRANSMITTED, STATUS_DIGITS)?;
+    let status =
+        (data.status.0 & Status::BOARD_AND_FLAGS) | Status::heading_ref(data.heading_ref).0;
+    s.push_hex(status, STATUS_DIGITS)?;
     s.push_str(",")?;
     s.push_uint(u64::from(data.cycle_us.min(PINAH_CYCLE_MAX_US)))?;
     s.finish()?;
@@ -97,6 +103,7 @@ mod tests {
             depth_m: Some(12.34),
             status: Status::from(Flags::ACCEL_USED | Flags::AT_REST) | Status::I2C_FAULT,
             cycle_us: 1234,
+            heading_ref: HeadingRef::True,
         }
     }
 
@@ -114,7 +121,7 @@ mod tests {
             f,
             [
                 "PINAH", "0.00", "0.00", "90.00", "0.7071", "0.0000", "0.0000", "0.7071", "12.3",
-                "10300", "1234"
+                "110300", "1234"
             ]
         );
         assert!(s.as_str().ends_with("\r\n"));
@@ -123,11 +130,16 @@ mod tests {
         d.quaternion = Quaternion::new(-0.5, 0.5, -0.5, 0.5);
         d.depth_m = Some(-0.04);
         d.cycle_us = 20_000;
+        d.heading_ref = HeadingRef::Relative;
+        d.status = Status(0xFFFF_FFFF);
         let f = fields(&pinah(&d).unwrap());
         assert_eq!(&f[1..4], ["-10.00", "-5.25", "-90.00"]);
         assert_eq!(&f[4..8], ["0.5000", "-0.5000", "0.5000", "-0.5000"]);
         assert_eq!(f[8], "0.0");
+        assert_eq!(f[9], "0FFFFF", "reserved bits 20–31 dropped, relative: bits 20–21 clear");
         assert_eq!(f[10], "9999");
+        d.heading_ref = HeadingRef::Magnetic;
+        assert_eq!(fields(&pinah(&d).unwrap())[9], "2FFFFF");
     }
 
     #[test]
@@ -147,15 +159,15 @@ mod tests {
         let f = fields(&pinah(&d).unwrap());
         assert_eq!(f.len(), 11);
         assert_eq!(&f[2..9], ["", "3.00", "", "", "", "-1.0000", ""]);
-        // Depth beyond the printable range −99.9 … 999.9 m is unknown too.
-        for depth in [1000.0, -100.0, f32::NAN] {
+        // Depth beyond the printable range −9.9 … 999.9 m is unknown too.
+        for depth in [1000.0, -10.0, f32::NAN] {
             d.depth_m = Some(depth);
             assert_eq!(fields(&pinah(&d).unwrap())[8], "");
         }
         d.depth_m = Some(999.94);
         assert_eq!(fields(&pinah(&d).unwrap())[8], "999.9");
-        d.depth_m = Some(-99.94);
-        assert_eq!(fields(&pinah(&d).unwrap())[8], "-99.9");
+        d.depth_m = Some(-9.94);
+        assert_eq!(fields(&pinah(&d).unwrap())[8], "-9.9");
     }
 
     #[test]
@@ -164,20 +176,21 @@ mod tests {
             euler: Euler::new(deg(-179.99), deg(-89.99), deg(-179.99)),
             // w ≥ 0 after canonicalisation; every other component negative and 7 wide.
             quaternion: Quaternion::new(0.1234, -0.9876, -0.5432, -1.0),
-            depth_m: Some(-99.9),
+            depth_m: Some(-9.9),
             status: Status(u32::MAX),
             cycle_us: u32::MAX,
+            heading_ref: HeadingRef::Magnetic,
         };
         let s = pinah(&worst).unwrap();
         assert_eq!(
             s.as_str(),
-            "$PINAH,-179.99,-89.99,-179.99,0.1234,-0.9876,-0.5432,-1.0000,-99.9,FFFFF,9999*08\r\n"
+            "$PINAH,-179.99,-89.99,-179.99,0.1234,-0.9876,-0.5432,-1.0000,-9.9,2FFFFF,9999*03\r\n"
         );
         assert_eq!(s.len(), MAX_SENTENCE_LEN);
         // Every combination of extreme-width values fits (and checks).
         let angles = [-179.99f32, 180.0, -89.99, -0.001, f32::NAN];
         let comps = [-1.0f32, -0.99999, 1.0, -0.00001, f32::NAN];
-        let depths = [Some(-99.9f32), Some(999.9), None];
+        let depths = [Some(-9.9f32), Some(999.9), None];
         let mut n = 0;
         for &a in &angles {
             for &c in &comps {
@@ -188,6 +201,7 @@ mod tests {
                         depth_m: dep,
                         status: Status(0xFFFF_FFFF),
                         cycle_us: 123_456,
+                        heading_ref: HeadingRef::Magnetic,
                     };
                     let s = pinah(&d).unwrap();
                     assert!(s.len() <= MAX_SENTENCE_LEN, "{}", s.as_str());

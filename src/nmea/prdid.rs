@@ -14,6 +14,9 @@ use super::sentence::Sentence;
 /// - heading: degrees, 2 decimals, in [0, 360), 0 = north (or the initial yaw reference),
 ///   clockwise seen from above (ψ wrapped; 359.996° prints as `0.00`).
 ///
+/// The pipeline does not send it while the attitude is not trustworthy (it has no status
+/// field: [`crate::pipeline::attitude_valid`]).
+///
 /// Example: `$PRDID,+1.23,-0.45,359.99*hh`. `attitude` is in rad with `ekf-core`'s Z-Y-X
 /// convention, whose signs are RDI's. A NaN or infinite angle gives an empty field. Angles are
 /// wrapped into (−180°, 180°] (pitch from `ekf-core` is within ±90° already), so the sentence

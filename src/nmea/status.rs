@@ -4,9 +4,12 @@ use core::ops::{BitOr, BitOrAssign};
 
 use ekf_core::Flags;
 
+use crate::pipeline::HeadingRef;
+
 /// Status word sent in `$PINAH`'s status field: bits 0–15 are the estimator's
 /// [`ekf_core::Flags`] of the cycle, bits 16–19 are board-level conditions (the constants
-/// below). Only bits 0–19 are transmitted (5 hex digits); bits 20–31 are reserved and dropped.
+/// below). `$PINAH` adds the heading reference in bits 20–21 and transmits bits 0–21 (6 hex
+/// digits); bits 22–31 are reserved and dropped.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub struct Status(pub u32);
 
@@ -26,8 +29,25 @@ impl Status {
     /// Bit 19: the depth channel touched an ADC rail during the cycle
     /// ([`crate::adc::DepthReading::at_rail`]): the depth is not trusted.
     pub const DEPTH_RAIL: Status = Status(1 << 19);
-    /// The bits `$PINAH` transmits (0–19).
-    pub const TRANSMITTED: u32 = 0x000F_FFFF;
+    /// The estimator's flags and the board bits (0–19).
+    pub const BOARD_AND_FLAGS: u32 = 0x000F_FFFF;
+    /// Bit 20 (`$PINAH` only): the heading is referenced to true north by the operator
+    /// (`YAW`).
+    pub const HEADING_TRUE: Status = Status(1 << 20);
+    /// Bit 21 (`$PINAH` only): the heading is referenced to true north by the magnetometer
+    /// (magnetic heading plus `mag.declination`). Neither bit 20 nor 21: relative.
+    pub const HEADING_MAGNETIC: Status = Status(1 << 21);
+    /// The bits `$PINAH` transmits (0–21; 6 hex digits).
+    pub const TRANSMITTED: u32 = 0x003F_FFFF;
+
+    /// Bits 20–21 for a heading reference.
+    pub const fn heading_ref(r: HeadingRef) -> Status {
+        match r {
+            HeadingRef::Relative => Status::NONE,
+            HeadingRef::True => Status::HEADING_TRUE,
+            HeadingRef::Magnetic => Status::HEADING_MAGNETIC,
+        }
+    }
 
     /// The status of an estimator update: its flags in bits 0–15, no board bit.
     #[inline]

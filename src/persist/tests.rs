@@ -259,14 +259,14 @@ fn random_bit_flips_in_one_page_are_detected() {
         let mut f = base.clone();
         let page = if trial % 2 == 0 { Page::A } else { Page::B };
         let flips = 1 + rng.below(if trial % 3 == 0 { 64 } else { 3 });
-        let mut in_record = false;
         for _ in 0..flips {
             // Mostly inside the record, sometimes anywhere in the page.
             let byte =
                 if rng.below(4) == 0 { rng.below(SIM_PAGE_SIZE) } else { rng.below(record_len) };
             f.page_mut(page)[byte] ^= 1 << rng.below(8);
-            in_record |= byte < record_len;
         }
+        // From the bytes that differ: two flips of one bit undo each other.
+        let in_record = f.page(page)[..record_len] != base.page(page)[..record_len];
         let l = load(&f);
         let intact = f.page(page) == base.page(page);
         let expect = match (page, intact || !in_record) {
@@ -340,4 +340,60 @@ fn print_record_size() {
     let mut probe = SimFlash::new();
     save(&mut probe, &PipelineSettings::default()).unwrap();
     println!("payload {len} record {} steps {}", HEADER_LEN + padded(len) + CRC_LEN, probe.steps);
+}
+
+/// The record's size with the current registry (`docs/commands.md` quotes it).
+#[test]
+fn record_size_of_the_current_registry() {
+    let (len, count) = payload_size(&PipelineSettings::default());
+    assert_eq!((count, len), (74, 537));
+    assert_eq!(HEADER_LEN + padded(len) + CRC_LEN, 554);
+}
+
+/// The marine output settings (ids 114–119) are saved and loaded like the others.
+#[test]
+fn marine_output_settings_survive_a_save() {
+    let mut s = PipelineSettings::default();
+    s.sentences.talker = crate::registry::talker_code(*b"II");
+    s.sentences.hdt = true;
+    s.sentences.hdg = true;
+    s.sentences.hdm = true;
+    s.sentences.rot = true;
+    s.sentences.xdr = true;
+    s.sentences.prdid = false;
+    let mut f = SimFlash::new();
+    save(&mut f, &s).unwrap();
+    let l = load(&f);
+    assert_eq!(l.settings.sentences, s.sentences);
+    assert_eq!((l.skipped, l.missing), (0, 0));
+}
+
+/// A record saved by the firmware before the marine sentences (ids 114–119): it loads in
+/// full, `$PRDID` off as saved, the new settings at their defaults (counted as missing: the
+/// output of a device in the field does not change with the update).
+#[test]
+fn a_record_from_before_the_marine_settings_loads_with_their_defaults() {
+    const NEW: [u16; 6] = [114, 115, 116, 117, 118, 119];
+    let mut old = PipelineSettings::default();
+    old.sentences.prdid = false;
+    old.output_rate_hz = 5;
+    let values: Vec<(u16, Vec<u8>)> = crate::registry::SETTINGS
+        .iter()
+        .filter(|s| !NEW.contains(&s.id))
+        .map(|s| {
+            let mut buf = [0u8; 12];
+            let n = s.encode(&s.get(&old), &mut buf);
+            (s.id, buf[..n].to_vec())
+        })
+        .collect();
+    let entries: Vec<(u16, &[u8])> = values.iter().map(|(id, v)| (*id, v.as_slice())).collect();
+    let mut f = SimFlash::new();
+    write_raw(&mut f, Page::B, 3, FORMAT_VERSION, &entries);
+    let l = load(&f);
+    assert_eq!(l.source, Source::Flash { page: Page::B, seq: 3 });
+    assert_eq!((l.skipped, l.missing), (0, NEW.len() as u16));
+    assert_eq!(l.settings, old);
+    let s = l.settings.sentences;
+    assert!(!s.prdid && s.pinah && !s.hdt && !s.hdg && !s.hdm && !s.rot && !s.xdr);
+    assert_eq!(s.talker, crate::registry::talker_code(*b"HC"));
 }

@@ -46,13 +46,28 @@ pub enum Kind {
     /// Signed axis permutation, three tokens such as `x,-y,-z`: body axis i (x forward,
     /// y starboard, z down) is the sensor axis named by token i, negated with `-`.
     Axes,
+    /// An NMEA talker identifier: two characters, each `A`–`Z` or `0`–`9` (lowercase letters
+    /// are taken as uppercase). Stored as [`Value::U16`], the two ASCII bytes big-endian
+    /// ([`talker_code`]).
+    Talker,
+}
+
+/// The internal value of a [`Kind::Talker`] setting: the two ASCII bytes, big-endian.
+pub const fn talker_code(talker: [u8; 2]) -> u16 {
+    u16::from_be_bytes(talker)
+}
+
+/// True when `code` ([`talker_code`]) is two characters `A`–`Z` or `0`–`9`.
+pub const fn talker_valid(code: u16) -> bool {
+    let [a, b] = code.to_be_bytes();
+    matches!(a, b'A'..=b'Z' | b'0'..=b'9') && matches!(b, b'A'..=b'Z' | b'0'..=b'9')
 }
 
 impl Kind {
     /// Number of comma-separated fields of a value of this kind.
     pub const fn fields(self) -> usize {
         match self {
-            Kind::F32 | Kind::Bool | Kind::U16 => 1,
+            Kind::F32 | Kind::Bool | Kind::U16 | Kind::Talker => 1,
             Kind::Vec3 | Kind::Axes => 3,
         }
     }
@@ -65,6 +80,7 @@ impl Kind {
             Kind::U16 => "u16",
             Kind::Vec3 => "f32x3",
             Kind::Axes => "axes",
+            Kind::Talker => "talker",
         }
     }
 }
@@ -301,6 +317,7 @@ impl Setting {
             (Value::F32(x), Kind::F32) => in_range(x),
             (Value::Vec3(x), Kind::Vec3) => x.iter().all(|&c| in_range(c)),
             (Value::U16(x), Kind::U16) => f32::from(x) >= min && f32::from(x) <= max,
+            (Value::U16(x), Kind::Talker) => talker_valid(x),
             (Value::Bool(_), Kind::Bool) | (Value::Axes(_), Kind::Axes) => true,
             _ => false,
         }
@@ -341,6 +358,17 @@ impl Setting {
                 u16::try_from(n).map(Value::U16).map_err(|_| ValueError::Range)
             }
             Kind::Axes => parse_axes([f(0), f(1), f(2)]).map(Value::Axes),
+            Kind::Talker => match f(0).as_bytes() {
+                &[a, b] => {
+                    let code = talker_code([a.to_ascii_uppercase(), b.to_ascii_uppercase()]);
+                    if talker_valid(code) {
+                        Ok(Value::U16(code))
+                    } else {
+                        Err(ValueError::Type)
+                    }
+                }
+                _ => Err(ValueError::Type),
+            },
         }
     }
 
@@ -372,6 +400,7 @@ impl Setting {
                 Ok(())
             }
             Value::Bool(b) => out.push_str(if b { "1" } else { "0" }),
+            Value::U16(n) if self.kind == Kind::Talker => out.push_bytes(&n.to_be_bytes()),
             Value::U16(n) => out.push_uint(u64::from(n)),
             Value::Axes(m) => {
                 for i in 0..3 {
@@ -393,7 +422,8 @@ impl Setting {
         }
     }
 
-    /// Serialise `v` (internal units) for flash: little-endian `f32` bits, `u16`, one byte per
+    /// Serialise `v` (internal units) for flash: little-endian `f32` bits, `u16` (a talker's
+    /// code too), one byte per
     /// bool, or one byte per axis (source index, bit 7 set for a negative sign). Returns the
     /// number of bytes written (0 if `out` is too short or the kind does not match).
     pub fn encode(&self, v: &Value, out: &mut [u8]) -> usize {
@@ -413,7 +443,7 @@ impl Setting {
                 tmp[0] = u8::from(b);
                 1
             }
-            (Value::U16(x), Kind::U16) => {
+            (Value::U16(x), Kind::U16 | Kind::Talker) => {
                 tmp[..2].copy_from_slice(&x.to_le_bytes());
                 2
             }
@@ -449,7 +479,9 @@ impl Setting {
                 1 => Value::Bool(true),
                 _ => return None,
             },
-            (Kind::U16, 2) => Value::U16(u16::from_le_bytes([*bytes.first()?, *bytes.get(1)?])),
+            (Kind::U16 | Kind::Talker, 2) => {
+                Value::U16(u16::from_le_bytes([*bytes.first()?, *bytes.get(1)?]))
+            }
             (Kind::Axes, 3) => {
                 let mut source = [0u8; 3];
                 let mut sign = [1i8; 3];

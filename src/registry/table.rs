@@ -71,6 +71,21 @@ macro_rules! uint {
     };
 }
 
+/// A talker-identifier field (two characters, stored as a `u16`).
+macro_rules! talker {
+    ($id:literal, $name:literal, $($rest:tt)*) => {
+        Setting {
+            id: $id,
+            name: $name,
+            kind: Kind::Talker,
+            unit: 0,
+            scale: Scale::One,
+            min: 0.0,
+            max: 0.0,
+        }
+    };
+}
+
 /// An axis-map field.
 macro_rules! axes {
     ($id:literal, $name:literal, $($rest:tt)*) => {
@@ -675,4 +690,18 @@ settings_table! {
         .output_rate_hz),
     flag!(112, "output.prdid", "send `$PRDID`", |s| s.sentences.prdid),
     flag!(113, "output.pinah", "send `$PINAH`", |s| s.sentences.pinah),
+    talker!(114, "output.talker", "talker of the standard sentences (`HC`: heading, compass)", |s| s
+        .sentences
+        .talker),
+    flag!(115, "output.hdt", "send `$--HDT` (true heading, while referenced to north)", |s| s
+        .sentences
+        .hdt),
+    flag!(116, "output.hdg", "send `$--HDG` (magnetic heading, variation; magnetometer on)", |s| s
+        .sentences
+        .hdg),
+    flag!(117, "output.hdm", "send `$--HDM` (magnetic heading; magnetometer on)", |s| s
+        .sentences
+        .hdm),
+    flag!(118, "output.rot", "send `$--ROT` (rate of turn)", |s| s.sentences.rot),
+    flag!(119, "output.xdr", "send `$--XDR` (pitch, roll, depth)", |s| s.sentences.xdr),
 }

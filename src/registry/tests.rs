@@ -37,7 +37,9 @@ fn defaults_are_valid_and_survive_encode_decode_and_text() {
     let d = PipelineSettings::default();
     for s in &SETTINGS {
         let v = s.get(&d);
-        assert_eq!(v.kind(), s.kind, "{}", s.name);
+        // A talker's code is a `u16`.
+        let kind = if s.kind == Kind::Talker { Kind::U16 } else { s.kind };
+        assert_eq!(v.kind(), kind, "{}", s.name);
         assert!(s.check(&v), "{} default {:?} out of range", s.name, v);
         let mut buf = [0u8; 16];
         let n = s.encode(&v, &mut buf);
@@ -74,6 +76,7 @@ fn every_setting_is_independent_of_the_others() {
             }
             Value::Vec3(_) => Value::Vec3([(f64::from(s.min) / s.scale.factor()) as f32; 3]),
             Value::Bool(b) => Value::Bool(!b),
+            Value::U16(_) if s.kind == Kind::Talker => Value::U16(super::talker_code(*b"II")),
             Value::U16(_) => Value::U16(s.max as u16),
             Value::Axes(m) => {
                 Value::Axes(m.inverse().compose(&AxisMap::new([2, 0, 1], [-1, 1, 1]).unwrap()))
@@ -144,6 +147,16 @@ fn bad_values_are_refused_with_the_right_reason() {
     assert_eq!(a.parse(&["x", "x", "z"]), Err(ValueError::Range));
     assert_eq!(a.parse(&["x", "w", "z"]), Err(ValueError::Type));
     assert_eq!(a.parse(&["x", "--y", "z"]), Err(ValueError::Type));
+    let t = find("output.talker").unwrap();
+    assert_eq!(t.parse(&["II"]), Ok(Value::U16(talker_code(*b"II"))));
+    assert_eq!(t.parse(&["gp"]), Ok(Value::U16(talker_code(*b"GP"))));
+    for bad in ["H", "HCX", "H-", "", "h ", "Hé"] {
+        assert_eq!(t.parse(&[bad]), Err(ValueError::Type), "{bad:?}");
+    }
+    assert_eq!(t.parse(&["H", "C"]), Err(ValueError::Args));
+    assert!(!t.check(&Value::U16(talker_code(*b"h1"))));
+    assert_eq!(t.decode(&talker_code(*b"C*").to_le_bytes()), None);
+    assert_eq!(t.decode(b"C"), None);
     // Decoding refuses wrong lengths, bad bytes and out-of-range values.
     assert_eq!(f.decode(&[0, 0, 0]), None);
     assert_eq!(f.decode(&2.0f32.to_le_bytes()), None);
@@ -165,6 +178,7 @@ fn the_longest_get_reply_and_set_command_fit_a_sentence() {
             Kind::Bool => 1,
             Kind::U16 => 5,
             Kind::Axes => 8,
+            Kind::Talker => 2,
         };
         let reply = "PINAR,OK,GET,".len() + s.name.len() + 1 + value_len;
         assert!(reply <= crate::nmea::MAX_BODY_LEN, "{} reply {reply}", s.name);
@@ -224,6 +238,7 @@ fn same_agrees_with_the_derived_equality() {
         // the largest), the other bool, a swapped axis map.
         let default = s.get(&d);
         let v = match default {
+            Value::U16(_) if s.kind == Kind::Talker => s.parse(&["ii"]).unwrap(),
             Value::F32(_) | Value::Vec3(_) | Value::U16(_) => {
                 let text = |x: f32| {
                     let mut t = Sentence::new();

@@ -1,5 +1,7 @@
 //! What the end-to-end tests share: the tool's binary and its six-position calibration run.
 
+pub mod clients;
+
 use std::{
     io::Write,
     process::{Command, Output, Stdio},

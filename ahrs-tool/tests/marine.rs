@@ -1,0 +1,162 @@
+//! The device's marine sentences read by real NMEA 0183 clients (issue #15): the emulated
+//! device (`ahrs-tool emulate --pty`, the firmware library on the host, at 10× real time)
+//! streams every sentence; the lines captured from its port go through pynmea2 (Python) and
+//! Signal K's parser `@signalk/nmea0183-signalk` (node), as installed by `scripts/marine-clients`
+//! under `target/`. Every sentence must parse in both (checksums checked), and what the clients
+//! read must agree with the estimate the device sent in the same output (`$PINAH`, 2 decimals)
+//! within the sentence's precision; data the device marks invalid never reaches Signal K as
+//! valid.
+//!
+//! Without the clients the test is skipped with a message, unless `CI` or
+//! `AHRS_MARINE_REQUIRED` is set (as `scripts/test-all` does): then it fails.
+
+use std::{
+    io::{BufRead, BufReader},
+    process::{Child, Command, Stdio},
+    time::{Duration, Instant},
+};
+
+// `calibrate` is for the other end-to-end tests.
+#[allow(dead_code)]
+mod common;
+use common::clients::{
+    angle_diff, capture, check_agreement, clients_or_skip, kind, outputs, parse, sk,
+};
+use common::{stdout, BIN};
+
+/// A running emulator; killed on drop.
+struct Emulator {
+    child: Child,
+    port: String,
+}
+
+impl Emulator {
+    fn start(args: &[&str]) -> Emulator {
+        let mut child = Command::new(BIN)
+            .args(["emulate", "--pty", "--speed", "10"])
+            .args(args)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("spawn emulator");
+        let mut line = String::new();
+        let read = BufReader::new(child.stdout.take().expect("stdout")).read_line(&mut line);
+        let mut emu = Emulator { child, port: line.trim().to_string() };
+        if read.is_err() || emu.port.is_empty() {
+            let _ = emu.child.kill();
+            panic!("emulator printed no port");
+        }
+        emu
+    }
+
+    /// `ahrs-tool send`: the reply, which must be OK.
+    fn send(&self, command: &str) -> String {
+        let o = Command::new(BIN).args(["send", &self.port, command]).output().expect("send");
+        let reply = stdout(&o);
+        assert_eq!(o.status.code(), Some(0), "{command}: {reply}");
+        reply
+    }
+
+    /// The complete lines the device sends during `seconds` (wall clock).
+    fn capture(&self, seconds: f64) -> Vec<String> {
+        capture(&self.port, seconds)
+    }
+}
+
+impl Drop for Emulator {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+#[test]
+fn every_sentence_parses_in_pynmea2_and_signal_k_and_agrees_with_the_estimate() {
+    let Some(clients) = clients_or_skip() else { return };
+    // A 5 °/s turn with a 15° pitch sine from the start, and the magnetometer.
+    let emu = Emulator::start(&["--scenario", "start-moving", "--mag"]);
+    emu.send("SENT,1,1,1,1,1,1,1");
+    emu.send("SET,mag.enabled,1");
+    // 3 s: 30 s of the scenario, 300 outputs at 10 Hz.
+    let p = parse(&clients, emu.capture(3.0), "moving");
+    let n = check_agreement(&p);
+    assert!(n.outputs > 200, "{n:?}");
+    // Most outputs carry each sentence (the magnetometer references the heading within the
+    // first seconds).
+    for (name, count) in
+        [("HDT", n.hdt), ("HDG", n.hdg), ("HDM", n.hdm), ("ROT", n.rot), ("XDR", n.xdr)]
+    {
+        assert!(count > n.outputs * 3 / 4, "{name} in {count} of {n:?}");
+    }
+}
+
+#[test]
+fn nothing_invalid_or_relative_reaches_signal_k_as_valid_and_yaw_makes_the_heading_true() {
+    let Some(clients) = clients_or_skip() else { return };
+    // Still for 10 s (the initialisation window), then a ±30° yaw sine; no magnetometer.
+    let emu = Emulator::start(&["--scenario", "yaw-sine"]);
+    emu.send("SENT,1,1,1,1,1,1,1");
+    // During the window: 0.6 s of the first 10 s.
+    let init = parse(&clients, emu.capture(0.6), "init");
+    let outs = outputs(&init);
+    assert!(outs.len() > 30, "{} outputs", outs.len());
+    for (k, o) in outs.iter().enumerate() {
+        assert!(o.status & 1 != 0, "initialising");
+        assert_eq!(o.prdid, None);
+        for &i in &o.others {
+            let (line, values) = (&init.lines[i], &init.signalk[i]);
+            match init.pynmea2[i][0].as_str() {
+                // The status field says V; Signal K drops it.
+                "ROT" => assert!(line.ends_with(",V*") || line.contains(",V*"), "{line}"),
+                // Depth only: the attitude's quadruplets are left out.
+                "XDR" => assert_eq!(init.pynmea2[i][1..], ["D:2.5:M:DEPTH"], "{line}"),
+                _ => panic!("output {k} sent {line} while initialising"),
+            }
+            assert!(
+                values.iter().all(|v| v == "null" || v.is_empty()),
+                "Signal K read {values:?} from {line}"
+            );
+        }
+    }
+    // Initialised (after 10 s of the scenario), heading relative: no HDT, nothing on
+    // navigation.headingTrue; the rate of turn is valid.
+    let until = Instant::now() + Duration::from_secs(5);
+    loop {
+        let lines = emu.capture(0.2);
+        let last = lines.iter().rev().find(|l| l.starts_with("$PINAH"));
+        let status = last.and_then(|l| u32::from_str_radix(l.split(',').nth(9)?, 16).ok());
+        if status.is_some_and(|s| s & 1 == 0) {
+            break;
+        }
+        assert!(Instant::now() < until, "still initialising: {last:?}");
+    }
+    let relative = parse(&clients, emu.capture(0.5), "relative");
+    let outs = outputs(&relative);
+    let st: Vec<String> = outs.iter().map(|o| format!("{:x}", o.status)).collect();
+    assert!(outs.iter().all(|o| o.status & 1 == 0 && (o.status >> 20) & 3 == 0), "{st:?}");
+    let mut rates = 0;
+    for i in outs.iter().flat_map(|o| o.others.iter().copied()) {
+        let values = &relative.signalk[i];
+        assert!(sk(values, "navigation.headingTrue").is_none(), "{}", relative.lines[i]);
+        assert_ne!(relative.pynmea2[i][0], "HDT");
+        rates += usize::from(sk(values, "navigation.rateOfTurn").is_some());
+    }
+    assert!(rates + 1 >= outs.len(), "{rates} valid rates in {} outputs", outs.len());
+    // The operator makes the heading true: 123.4° now.
+    emu.send("YAW,123.4");
+    let status = emu.send("STATUS");
+    assert!(status.contains(",T*"), "{status}");
+    let true_ = parse(&clients, emu.capture(0.3), "true");
+    let outs = outputs(&true_);
+    let first = outs.first().expect("outputs");
+    assert_eq!((first.status >> 20) & 3, 1, "heading true by the operator");
+    let mut headings = Vec::new();
+    for o in &outs {
+        let (i, _) = kind(&true_, o, "HDT").expect("HDT in every output");
+        let h = sk(&true_.signalk[i], "navigation.headingTrue").expect("headingTrue");
+        assert!(angle_diff(h.to_degrees(), o.yaw.rem_euclid(360.0)).abs() <= 0.0551);
+        headings.push(h.to_degrees());
+    }
+    // Within a few tenths of a second of the scenario's turn (at most 9.4 °/s) of 123.4°.
+    assert!(angle_diff(headings[0], 123.4).abs() < 5.0, "{headings:?}");
+}
