@@ -2,7 +2,9 @@
 //!
 //! - `live <port>`: attitude and depth from `$PINAH` / `$PRDID`, one refreshing line;
 //! - `send <port> <COMMAND...>`: one `$PINAC` command, print the `$PINAR` reply;
-//! - `log <port> --out trace.csv`: raw mode into the trace CSV format;
+//! - `log <port> --out trace.csv`: raw mode into the trace CSV format, the device's settings in
+//!   its header;
+//! - `settings get|put <port>`: the device's settings to a `NAME=VALUE` file and back;
 //! - `calibrate <port>`: interactive six-position accelerometer calibration;
 //! - `emulate --pty`: the firmware library on the host behind a pseudo-terminal.
 

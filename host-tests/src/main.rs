@@ -250,7 +250,7 @@ fn replay_config(
             "trace header: {} device settings applied{}",
             rs.from_trace,
             if rs.lever_applied {
-                "; samples already conditioned (lever arm not applied again)"
+                "; its samples already had the lever arm (none added)"
             } else {
                 ""
             }

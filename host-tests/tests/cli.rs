@@ -541,3 +541,102 @@ fn unfinished_and_moving_starts_are_warned_about() {
         stderr(&o)
     );
 }
+
+/// A trace shaped as `ahrs-tool log` writes it: the CSV header, then the comments of
+/// `TraceMeta::log_comments` (the conditioning its samples had, the device's settings).
+/// Also the device's settings as a settings file (what `ahrs-tool settings get` writes).
+fn as_logged(trace: &Path, device: &[&str], out: &Path, settings: &Path) {
+    use host_tests::settings::{parse_assignment, settings_file_text, TraceMeta};
+    let mut s = inemo_ahrs::pipeline::PipelineSettings::default();
+    for t in device {
+        let a = parse_assignment(t).unwrap();
+        assert!(a.setting.set(&mut s, a.value));
+    }
+    std::fs::write(settings, settings_file_text(&s, &["a test device".into()])).unwrap();
+    let text = std::fs::read_to_string(trace).unwrap();
+    let (header, rest) = text.split_once('\n').unwrap();
+    let mut log = format!("{header}\n# raw mode log from a test\n");
+    for c in TraceMeta::log_comments(&s) {
+        log.push_str(&format!("# {c}\n"));
+    }
+    log.push_str(rest);
+    std::fs::write(out, log).unwrap();
+}
+
+#[test]
+fn a_logged_dive_replays_with_the_device_settings_and_no_second_lever_arm() {
+    let dir = tempfile::tempdir().unwrap();
+    let trace = simulate(dir.path(), "coupled", "30");
+    let dive = dir.path().join("dive.csv");
+    let dev = dir.path().join("device.txt");
+    as_logged(&trace, &["gate.jump=0.3", "lever.r=1,-0.5,0.2"], &dive, &dev);
+    let f = |n: &str| dir.path().join(n);
+    let o = run(&["replay", p(&dive), "--out", p(&f("a.csv"))]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(
+        stderr(&o),
+        "replay: trace header: 71 device settings applied; its samples already had the lever \
+         arm (none added)\n"
+            .replace("71", &inemo_ahrs::registry::SETTINGS.len().to_string())
+    );
+    // The same as the bare trace with the device's settings (through the same 7-digit text)
+    // and no lever arm ...
+    let o = run(&[
+        "replay",
+        p(&trace),
+        "--out",
+        p(&f("b.csv")),
+        "--settings",
+        p(&dev),
+        "--set",
+        "lever.r=0,0,0",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(std::fs::read(f("a.csv")).unwrap(), std::fs::read(f("b.csv")).unwrap());
+    // ... and not as with the device's arm applied once more.
+    let o = run(&["replay", p(&trace), "--out", p(&f("c.csv")), "--settings", p(&dev)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_ne!(std::fs::read(f("a.csv")).unwrap(), std::fs::read(f("c.csv")).unwrap());
+    // A lever arm given for such a trace is named as not applied.
+    let o = run(&["replay", p(&dive), "--out", p(&f("d.csv")), "--set", "lever.r=0.1,0,0"]);
+    assert!(stderr(&o).contains("not applied: lever.r (the trace says its samples already had"));
+    assert_eq!(std::fs::read(f("a.csv")).unwrap(), std::fs::read(f("d.csv")).unwrap());
+}
+
+/// `docs/tuning.md`, "Try a change on a recorded dive first", and `docs/replay.md`: the
+/// commands as written there, on a dive shaped as `ahrs-tool log` writes it.
+#[test]
+fn the_documented_try_it_on_a_recorded_dive_commands_work() {
+    let dir = tempfile::tempdir().unwrap();
+    let trace = simulate(dir.path(), "coupled", "30");
+    let dive = dir.path().join("dive.csv");
+    as_logged(&trace, &[], &dive, &dir.path().join("device.txt"));
+    let cd = |args: &[&str]| {
+        Command::new(BIN).current_dir(dir.path()).args(args).output().expect("run host-tests")
+    };
+    let before = cd(&["replay", "dive.csv", "--out", "before.csv"]);
+    assert!(before.status.success(), "{}", stderr(&before));
+    let after = cd(&[
+        "replay",
+        "dive.csv",
+        "--out",
+        "after.csv",
+        "--set",
+        "gate.jump=0.1",
+        "--set",
+        "ekf.accel_var_scale=20",
+    ]);
+    assert!(after.status.success(), "{}", stderr(&after));
+    assert!(!stderr(&after).contains("not applied:"), "{}", stderr(&after));
+    let read = |n: &str| std::fs::read(dir.path().join(n)).unwrap();
+    assert_ne!(read("before.csv"), read("after.csv"));
+    let file = cd(&["replay", "dive.csv", "--out", "file.csv", "--settings", "device.txt"]);
+    assert!(file.status.success(), "{}", stderr(&file));
+    // A device's whole file: the settings a replay cannot apply are named, the rest applied.
+    assert!(
+        stderr(&file).contains("not applied: axes.gyro, axes.accel, axes.mag"),
+        "{}",
+        stderr(&file)
+    );
+    assert_eq!(read("before.csv"), read("file.csv"));
+}
