@@ -230,8 +230,11 @@ fn replay_config(
     let (base, foreign_line) =
         if o.foreign { foreign_config(given) } else { (ReplayConfig::default(), String::new()) };
     let mut rs = ReplaySettings::new(device_form(&base));
-    let meta = TraceMeta::read(trace).map_err(|e| format!("{}: {e}", trace.display()))?;
-    rs.apply_trace(&meta, &trace.display().to_string())?;
+    // A regular file only: reading a pipe's header here would take it from the replay.
+    if std::fs::metadata(trace).is_ok_and(|m| m.is_file()) {
+        let meta = TraceMeta::read(trace).map_err(|e| format!("{}: {e}", trace.display()))?;
+        rs.apply_trace(&meta, &trace.display().to_string())?;
+    }
     for path in &o.settings {
         for (_, a) in read_settings_file(path)? {
             rs.apply_given(&a);
@@ -366,14 +369,12 @@ fn run_replay(
 /// What the estimator's flags said over a replay, for the warnings.
 #[derive(Default)]
 struct FlagSummary {
-    rows: u64,
     last: u16,
     moving_start: bool,
 }
 
 impl FlagSummary {
     fn add(&mut self, bits: u16) {
-        self.rows += 1;
         self.last = bits;
         self.moving_start |= bits & Flags::MOVING_START.bits() != 0;
     }
