@@ -256,13 +256,14 @@ fn expect_ok(link: &mut Link, body: &str) -> Result<Reply, String> {
 
 fn log(port: &str, out: &PathBuf, seconds: Option<f64>) -> Result<(), String> {
     let mut link = Link::open(port)?;
+    // What the samples already had applied and the device's settings (`host-tests replay`
+    // applies them, and no conditioning twice); read before the file is created.
+    let header = settings_cmd::log_comments(&mut link)?;
     let file = File::create(out).map_err(|e| format!("cannot create {}: {e}", out.display()))?;
     let cols = TraceColumns { mag: true, depth: true, truth: false };
     let mut writer = TraceWriter::new(BufWriter::new(file), cols).map_err(io_err)?;
     writer.comment(&format!("raw mode log from {port} by ahrs-tool")).map_err(io_err)?;
-    // What the samples already had applied and the device's settings (`host-tests replay`
-    // applies them, and no conditioning twice).
-    for c in settings_cmd::log_comments(&mut link)? {
+    for c in header {
         writer.comment(&c).map_err(io_err)?;
     }
     catch_ctrl_c();

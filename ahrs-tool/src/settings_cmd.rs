@@ -44,11 +44,16 @@ pub fn read_device(link: &mut Link) -> Result<Vec<(String, String)>, String> {
     Ok(out)
 }
 
-/// The comment lines (without `# `) a log starts with: what its samples already had applied
-/// (`$PINAW` is the estimator's input: axis maps, calibration and lever arm applied) and the
-/// device's settings.
+/// The comment lines (without `# `) a log starts with: the device's `VER` fields, what its
+/// samples already had applied
+/// (`$PINAW` is the estimator's input: axis maps, calibration and lever arm applied) and its
+/// settings.
 pub fn log_comments(link: &mut Link) -> Result<Vec<String>, String> {
-    let mut out = vec![format!("{META_CONDITIONED}{}", LOG_CONDITIONED.join(" "))];
+    let ver = ok_reply(link, "VER")?;
+    let mut out = vec![
+        format!("device: {}", ver.fields.join(",")),
+        format!("{META_CONDITIONED}{}", LOG_CONDITIONED.join(" ")),
+    ];
     for (name, value) in read_device(link)? {
         out.push(format!("{META_SETTING}{name}={value}"));
     }

@@ -133,6 +133,8 @@ fn a_log_records_its_settings_and_the_replay_applies_no_lever_arm_twice() {
     let o = emu.tool(&["log", "--out", csv.to_str().unwrap(), "--seconds", "1.5"]);
     assert!(o.status.success(), "{}", stderr(&o));
 
+    let text = std::fs::read_to_string(&csv).unwrap();
+    assert!(text.contains("\n# device: inemo-ahrs,"), "{}", &text[..300]);
     let meta = TraceMeta::read(&csv).unwrap();
     assert!(meta.lever_applied(), "{meta:?}");
     assert_eq!(meta.settings.len(), SETTINGS.len());
