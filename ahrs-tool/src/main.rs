@@ -2,7 +2,9 @@
 //!
 //! - `live <port>`: attitude and depth from `$PINAH` / `$PRDID`, one refreshing line;
 //! - `send <port> <COMMAND...>`: one `$PINAC` command, print the `$PINAR` reply;
-//! - `log <port> --out trace.csv`: raw mode into the trace CSV format;
+//! - `log <port> --out trace.csv`: raw mode into the trace CSV format, the device's settings in
+//!   its header;
+//! - `settings get|put <port>`: the device's settings to a `NAME=VALUE` file and back;
 //! - `calibrate <port>`: interactive six-position accelerometer calibration;
 //! - `emulate --pty`: the firmware library on the host behind a pseudo-terminal;
 //! - `bridge <port> --udp host[:port] --tcp addr[:port]`: the sentences onto the network.
@@ -10,7 +12,9 @@
 mod bridge;
 mod emulate;
 mod link;
+mod live;
 mod raw;
+mod settings_cmd;
 
 use std::{
     fs::File,
@@ -72,6 +76,12 @@ enum Cmd {
         #[arg(long)]
         seconds: Option<f64>,
     },
+    /// Save a device's settings to a file, or send a file's settings to a device (`NAME=VALUE`
+    /// lines, the device's names and units: `host-tests replay --settings` reads them too).
+    Settings {
+        #[command(subcommand)]
+        action: SettingsAction,
+    },
     /// Interactive six-position accelerometer calibration (answers read from stdin).
     Calibrate {
         /// Serial port.
@@ -130,6 +140,29 @@ enum Cmd {
     },
 }
 
+/// `ahrs-tool settings ...`.
+#[derive(Subcommand)]
+enum SettingsAction {
+    /// Read every setting (`LIST`, `GET`) and write them as a settings file.
+    Get {
+        /// Serial port.
+        port: String,
+        /// Output settings file (`-`: standard output).
+        #[arg(long)]
+        out: PathBuf,
+    },
+    /// Check every line of a settings file, then `SET` each on the device.
+    Put {
+        /// Serial port.
+        port: String,
+        /// Settings file (`NAME=VALUE` lines, `#` comments).
+        file: PathBuf,
+        /// Also `SAVE` them to flash.
+        #[arg(long)]
+        save: bool,
+    },
+}
+
 static INTERRUPTED: AtomicBool = AtomicBool::new(false);
 
 extern "C" fn on_sigint(_: libc::c_int) {
@@ -148,7 +181,7 @@ fn catch_ctrl_c() {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.cmd {
-        Cmd::Live { port, seconds } => live(&port, seconds),
+        Cmd::Live { port, seconds } => live::live(&port, seconds.map(|s| Instant::now() + secs(s))),
         Cmd::Send { port, command, timeout, wait_late } => {
             return send(&port, &command, timeout, wait_late);
         }
@@ -158,6 +191,12 @@ fn main() -> ExitCode {
             catch_ctrl_c();
             let stop = || INTERRUPTED.load(Ordering::SeqCst);
             bridge::run(&port, udp.as_deref(), tcp.as_deref(), seconds, &stop)
+        }
+        Cmd::Settings { action: SettingsAction::Get { port, out } } => {
+            settings_cmd::get(&port, &out)
+        }
+        Cmd::Settings { action: SettingsAction::Put { port, file, save } } => {
+            settings_cmd::put(&port, &file, save)
         }
         Cmd::Emulate { pty, port, scenario, speed, depth, seed, follow_acal, mag } => {
             let opts = emulate::Options { scenario, speed, depth_m: depth, seed, follow_acal, mag };
@@ -179,84 +218,6 @@ fn io_err(e: io::Error) -> String {
 
 fn secs(s: f64) -> Duration {
     Duration::from_secs_f64(s.clamp(0.0, 1e6))
-}
-
-fn live(port: &str, seconds: Option<f64>) -> Result<(), String> {
-    let mut link = Link::open(port)?;
-    catch_ctrl_c();
-    let end = seconds.map(|s| Instant::now() + secs(s));
-    let tty = io::stdout().is_terminal();
-    let (mut prdid, mut pinah): (Option<Vec<String>>, Option<Vec<String>>) = (None, None);
-    let mut last_seen = Instant::now();
-    while !INTERRUPTED.load(Ordering::SeqCst) && end.is_none_or(|e| Instant::now() < e) {
-        let deadline = Instant::now() + Duration::from_millis(200);
-        let Some((body, _)) = link.next_sentence(deadline).map_err(io_err)? else {
-            if last_seen.elapsed() > Duration::from_secs(2) {
-                print!(
-                    "{}no data from {port}{}",
-                    if tty { "\r\x1b[K" } else { "" },
-                    if tty { "" } else { "\n" }
-                );
-                io::stdout().flush().ok();
-                last_seen = Instant::now();
-            }
-            continue;
-        };
-        let f: Vec<String> = body.split(',').map(str::to_string).collect();
-        match f[0].as_str() {
-            "PINAH" => pinah = Some(f),
-            "PRDID" => prdid = Some(f),
-            _ => continue,
-        }
-        last_seen = Instant::now();
-        let text = live_line(prdid.as_deref(), pinah.as_deref());
-        if tty {
-            print!("\r\x1b[K{text}");
-        } else {
-            println!("{text}");
-        }
-        io::stdout().flush().ok();
-    }
-    if tty {
-        println!();
-    }
-    Ok(())
-}
-
-/// One display line from the latest `$PRDID` and `$PINAH` fields.
-fn live_line(prdid: Option<&[String]>, pinah: Option<&[String]>) -> String {
-    let get = |f: Option<&[String]>, i: usize| {
-        f.and_then(|f| f.get(i)).filter(|s| !s.is_empty()).cloned().unwrap_or_else(|| "-".into())
-    };
-    match pinah {
-        // $PINAH,<roll>,<pitch>,<yaw>,<qw>,<qx>,<qy>,<qz>,<depth>,<status>,<cycle>; the
-        // status word's bits 20–21 are the heading reference.
-        Some(_) => {
-            let status = get(pinah, 9);
-            let reference = match u32::from_str_radix(&status, 16).map(|s| (s >> 20) & 3) {
-                Ok(0) => "relative",
-                Ok(1) => "true (YAW)",
-                Ok(2) => "true (magnetometer)",
-                _ => "-",
-            };
-            format!(
-                "roll {:>8}  pitch {:>7}  yaw {:>8}  depth {:>6} m  status {}  heading {}",
-                get(pinah, 1),
-                get(pinah, 2),
-                get(pinah, 3),
-                get(pinah, 8),
-                status,
-                reference
-            )
-        }
-        // $PRDID,<pitch>,<roll>,<heading>
-        None => format!(
-            "roll {:>8}  pitch {:>7}  heading {:>8}",
-            get(prdid, 2),
-            get(prdid, 1),
-            get(prdid, 3)
-        ),
-    }
 }
 
 fn send(port: &str, words: &[String], timeout: f64, wait_late: Option<f64>) -> ExitCode {
@@ -323,10 +284,16 @@ fn expect_ok(link: &mut Link, body: &str) -> Result<Reply, String> {
 
 fn log(port: &str, out: &PathBuf, seconds: Option<f64>) -> Result<(), String> {
     let mut link = Link::open(port)?;
+    // What the samples already had applied and the device's settings (`host-tests replay`
+    // applies them, and no conditioning twice); read before the file is created.
+    let header = settings_cmd::log_comments(&mut link)?;
     let file = File::create(out).map_err(|e| format!("cannot create {}: {e}", out.display()))?;
     let cols = TraceColumns { mag: true, depth: true, truth: false };
     let mut writer = TraceWriter::new(BufWriter::new(file), cols).map_err(io_err)?;
     writer.comment(&format!("raw mode log from {port} by ahrs-tool")).map_err(io_err)?;
+    for c in header {
+        writer.comment(&c).map_err(io_err)?;
+    }
     catch_ctrl_c();
     expect_ok(&mut link, "RAW,1")?;
     let end = seconds.map(|s| Instant::now() + secs(s));
@@ -467,7 +434,7 @@ fn emulator(pty: bool, port: Option<PathBuf>, opts: &emulate::Options) -> Result
 
 #[cfg(test)]
 mod tests {
-    use super::*;
+    use crate::live::live_line;
 
     fn fields(line: &str) -> Vec<String> {
         line.split(',').map(str::to_string).collect()

@@ -4,14 +4,19 @@
 use std::io::BufReader;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use std::sync::{Arc, Mutex, PoisonError};
 
 use clap::{Parser, Subcommand};
 use ekf_core::conditioning::Conditioner;
-use ekf_core::Vec3;
-use host_tests::config::{apply_config, ReplayConfig};
+use ekf_core::{Flags, Vec3};
+use host_tests::config::ReplayConfig;
+use host_tests::lenient::{SkipBadRows, Skipped};
 use host_tests::output::{produce_atomically, refuse_overwriting_inputs, write_atomically};
 use host_tests::real::AttitudeScore;
 use host_tests::replay::{replay_serial_with, replay_with, FilterKind, ReplayError};
+use host_tests::settings::{
+    device_form, parse_assignment, read_settings_file, ReplaySettings, TraceMeta,
+};
 use host_tests::sim::{Scenario, SimOptions};
 use host_tests::trace::{
     read_estimate_file, read_trace_file, EstimateRow, TraceReader, TraceRow, TraceWriter,
@@ -86,18 +91,28 @@ enum Cmd {
         /// ekf, ukf, ssukf, cf or gyro.
         #[arg(long, default_value = "ekf", value_parser = parse_filter)]
         filter: FilterKind,
-        /// TOML file overriding settings (see the `config` module docs).
-        #[arg(long)]
-        config: Option<PathBuf>,
+        /// A setting in the device's language, `NAME=VALUE` with the registry's names and
+        /// units (`gate.jump=0.1`, `lever.r=0,0,0`; docs/commands.md, docs/replay.md);
+        /// repeatable, applied in order after `--settings`.
+        #[arg(long = "set", value_name = "NAME=VALUE")]
+        set: Vec<String>,
+        /// A settings file: one `NAME=VALUE` per line, `#` comments (`ahrs-tool settings get`
+        /// writes one from a device); repeatable, applied in order.
+        #[arg(long = "settings", value_name = "FILE")]
+        settings: Vec<PathBuf>,
         /// Do not estimate the gyro bias in the initialisation window: use the configured
-        /// `init.gyro_bias`.
+        /// `init.gyro_bias` (the same as `--set init.estimate_bias=0`).
         #[arg(long)]
         no_init_bias: bool,
         /// Another IMU's recording (e.g. RepoIMU): drop the Seahog specifics, i.e. no lever
         /// arm (`LeverArm::NONE`) and a configured gyro bias of zero (`init.gyro_bias`, the
-        /// iNEMO board's); everything else default. A `--config` file applies on top.
+        /// iNEMO board's); everything else default. `--settings` and `--set` apply on top.
         #[arg(long)]
         foreign: bool,
+        /// Pass over malformed rows (bad cells, time not increasing) instead of stopping at
+        /// the first; their number and first line numbers are reported on stderr.
+        #[arg(long)]
+        skip_bad_rows: bool,
     },
     /// Plot truth vs estimate and the error per axis to a PNG.
     Plot {
@@ -191,31 +206,71 @@ fn foreign_config(then_config: bool) -> (ReplayConfig, String) {
         vec3(cfg.conditioning.lever_arm.r, 1.0),
         vec3(bias, 1f32.to_degrees()),
         vec3(cfg.settings.init.gyro_bias, 1f32.to_degrees()),
-        if then_config { ", then --config on top" } else { "" },
+        if then_config { ", then the given settings on top" } else { "" },
     );
     (cfg, line)
+}
+
+/// `replay`'s options besides the paths and the filter.
+struct ReplayOptions {
+    set: Vec<String>,
+    settings: Vec<PathBuf>,
+    no_init_bias: bool,
+    foreign: bool,
+    skip_bad_rows: bool,
+}
+
+/// The replay's configuration: the defaults (or `--foreign`'s), the trace's own header (a log's
+/// device settings and conditioning), the settings files, each `--set`. Notes for stderr.
+fn replay_config(
+    trace: &Path,
+    o: &ReplayOptions,
+) -> Result<(ReplayConfig, String, Vec<String>), String> {
+    let given = !o.set.is_empty() || !o.settings.is_empty();
+    let (base, foreign_line) =
+        if o.foreign { foreign_config(given) } else { (ReplayConfig::default(), String::new()) };
+    let mut rs = ReplaySettings::new(device_form(&base));
+    // A regular file only: reading a pipe's header here would take it from the replay.
+    if std::fs::metadata(trace).is_ok_and(|m| m.is_file()) {
+        let meta = TraceMeta::read(trace).map_err(|e| format!("{}: {e}", trace.display()))?;
+        rs.apply_trace(&meta, &trace.display().to_string())?;
+    }
+    for path in &o.settings {
+        for (_, a) in read_settings_file(path)? {
+            rs.apply_given(&a);
+        }
+    }
+    for text in &o.set {
+        rs.apply_given(&parse_assignment(text).map_err(|e| format!("--set {e}"))?);
+    }
+    let mut cfg = rs.config(&base);
+    if o.no_init_bias {
+        cfg.settings.init.estimate_gyro_bias = false;
+    }
+    let mut notes = Vec::new();
+    if rs.from_trace > 0 || rs.lever_applied {
+        notes.push(format!(
+            "trace header: {} device settings applied{}",
+            rs.from_trace,
+            if rs.lever_applied {
+                "; its samples already had the lever arm (none added)"
+            } else {
+                ""
+            }
+        ));
+    }
+    notes.extend(rs.notes());
+    Ok((cfg, foreign_line, notes))
 }
 
 fn run_replay(
     trace: &Path,
     out: &Path,
     filter: FilterKind,
-    config: Option<&Path>,
-    no_init_bias: bool,
-    foreign: bool,
+    o: &ReplayOptions,
 ) -> Result<(), String> {
-    let (mut cfg, foreign_line) = if foreign {
-        foreign_config(config.is_some())
-    } else {
-        (ReplayConfig::default(), String::new())
-    };
-    if let Some(p) = config {
-        let text = std::fs::read_to_string(p).map_err(|e| format!("{}: {e}", p.display()))?;
-        apply_config(&text, &mut cfg).map_err(|e| format!("{}: {e}", p.display()))?;
-    }
-    if no_init_bias {
-        cfg.settings.init.estimate_gyro_bias = false;
-    }
+    let (cfg, foreign_line, notes) = replay_config(trace, o)?;
+    let foreign = o.foreign;
     refuse_overwriting_inputs(out, &[trace]).map_err(|e| e.to_string())?;
     let file = std::fs::File::open(trace).map_err(|e| format!("{}: {e}", trace.display()))?;
     let reader = TraceReader::new(BufReader::with_capacity(1 << 16, file))
@@ -230,13 +285,30 @@ fn run_replay(
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
     // Inclination and heading errors (`host_tests::real`) of every row with truth.
     let mut score = AttitudeScore::default();
-    let observe = |row: &TraceRow, est: &EstimateRow| {
+    let mut score_row = |row: &TraceRow, est: &EstimateRow| {
         if let Some(t) = row.truth {
             score.add(est.q.map(f64::from), t.map(f64::from));
         }
     };
+    let mut flags = FlagSummary::default();
+    let observe = |row: &TraceRow, est: &EstimateRow| {
+        flags.add(est.flags);
+        score_row(row, est)
+    };
+    let skipped = Arc::new(Mutex::new(Skipped::default()));
     let stats = write_atomically(out, |w| {
-        if cores > 1 {
+        if o.skip_bad_rows {
+            let reader = SkipBadRows::new(reader);
+            let record = reader.skipped();
+            let r = if cores > 1 {
+                replay_with(reader, w, f.as_mut(), &mut cond, window, observe)
+            } else {
+                replay_serial_with(reader, w, f.as_mut(), &mut cond, window, observe)
+            };
+            *skipped.lock().unwrap_or_else(PoisonError::into_inner) =
+                record.lock().unwrap_or_else(PoisonError::into_inner).clone();
+            r
+        } else if cores > 1 {
             replay_with(reader, w, f.as_mut(), &mut cond, window, observe)
         } else {
             replay_serial_with(reader, w, f.as_mut(), &mut cond, window, observe)
@@ -246,6 +318,15 @@ fn run_replay(
         ReplayError::Trace(e) => format!("{}: {e}", trace.display()),
         ReplayError::Io(e) => format!("{}: {e}", out.display()),
     })?;
+    for n in &notes {
+        eprintln!("replay: {n}");
+    }
+    if let Some(r) = skipped.lock().unwrap_or_else(PoisonError::into_inner).report() {
+        eprintln!("replay: {r}");
+    }
+    for w in flags.warnings(stats.rows) {
+        eprintln!("warning: {w}");
+    }
     let rate = stats.rows as f64 / stats.elapsed_s.max(1e-9);
     if foreign {
         say!("{foreign_line}");
@@ -283,6 +364,40 @@ fn run_replay(
         }
     }
     Ok(())
+}
+
+/// What the estimator's flags said over a replay, for the warnings.
+#[derive(Default)]
+struct FlagSummary {
+    last: u16,
+    moving_start: bool,
+}
+
+impl FlagSummary {
+    fn add(&mut self, bits: u16) {
+        self.last = bits;
+        self.moving_start |= bits & Flags::MOVING_START.bits() != 0;
+    }
+
+    /// The warnings: the initialisation never completed; the start was not still.
+    fn warnings(&self, rows: u64) -> Vec<String> {
+        let mut out = Vec::new();
+        if rows > 0 && self.last & Flags::INITIALISING.bits() != 0 {
+            out.push(format!(
+                "the initialisation never completed: every one of the {rows} rows is \
+                 \"initialising\" (the trace is shorter than init.window, or its start is \
+                 invalid); the estimates use the configured gyro bias"
+            ));
+        }
+        if self.moving_start {
+            out.push(
+                "the start was not still (MOVING_START): the filter started from the configured \
+                 gyro bias, init.gyro_bias, with a wide uncertainty"
+                    .to_string(),
+            );
+        }
+        out
+    }
 }
 
 fn run_plot(trace: &Path, est: &Path, out: &Path) -> Result<(), String> {
@@ -344,8 +459,9 @@ fn main() -> ExitCode {
         Cmd::Simulate { scenario, out, rate, duration, seed, mag, realistic } => {
             simulate(scenario, &out, rate, duration, seed, mag, realistic)
         }
-        Cmd::Replay { trace, out, filter, config, no_init_bias, foreign } => {
-            run_replay(&trace, &out, filter, config.as_deref(), no_init_bias, foreign)
+        Cmd::Replay { trace, out, filter, set, settings, no_init_bias, foreign, skip_bad_rows } => {
+            let opts = ReplayOptions { set, settings, no_init_bias, foreign, skip_bad_rows };
+            run_replay(&trace, &out, filter, &opts)
         }
         Cmd::Plot { trace, est, out } => run_plot(&trace, &est, &out),
     };

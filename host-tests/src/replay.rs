@@ -170,6 +170,19 @@ pub struct ReplayStats {
     pub final_bias_dps: [f32; 3],
 }
 
+/// Where a replay's rows come from: a [`TraceReader`], or one that passes over malformed rows
+/// ([`crate::lenient::SkipBadRows`]).
+pub trait RowSource {
+    /// The next row, `Ok(None)` at the end.
+    fn next_row(&mut self) -> Result<Option<TraceRow>, TraceError>;
+}
+
+impl<R: BufRead> RowSource for TraceReader<R> {
+    fn next_row(&mut self) -> Result<Option<TraceRow>, TraceError> {
+        TraceReader::next_row(self)
+    }
+}
+
 /// Rows per chunk handed from the parsing thread to the filtering thread.
 const CHUNK: usize = 2048;
 
@@ -178,8 +191,8 @@ const CHUNK: usize = 2048;
 ///
 /// Three stages on three threads, a few chunks of rows apart: parsing, the filter (this
 /// thread), and formatting plus writing the estimates.
-pub fn replay<R: BufRead + Send, W: Write + Send>(
-    reader: TraceReader<R>,
+pub fn replay<S: RowSource + Send, W: Write + Send>(
+    reader: S,
     out: W,
     filter: &mut dyn AttitudeFilter,
     conditioner: &mut Conditioner,
@@ -190,8 +203,8 @@ pub fn replay<R: BufRead + Send, W: Write + Send>(
 
 /// [`replay`] that also hands every input row with its estimate to `observe`, on the calling
 /// thread (the filter's), in row order (the CLI scores inclination and heading with it).
-pub fn replay_with<R: BufRead + Send, W: Write + Send>(
-    mut reader: TraceReader<R>,
+pub fn replay_with<S: RowSource + Send, W: Write + Send>(
+    mut reader: S,
     out: W,
     filter: &mut dyn AttitudeFilter,
     conditioner: &mut Conditioner,
@@ -264,8 +277,8 @@ pub fn replay_with<R: BufRead + Send, W: Write + Send>(
 /// [`replay`] (tests/replay_paths.rs; after an error, the two have written different numbers of
 /// whole rows, the start of the output either way); faster than it on one core, or when the
 /// other cores are busy.
-pub fn replay_serial<R: BufRead, W: Write>(
-    reader: TraceReader<R>,
+pub fn replay_serial<S: RowSource, W: Write>(
+    reader: S,
     out: W,
     filter: &mut dyn AttitudeFilter,
     conditioner: &mut Conditioner,
@@ -276,8 +289,8 @@ pub fn replay_serial<R: BufRead, W: Write>(
 
 /// [`replay_serial`] that also hands every input row with its estimate to `observe`, in row
 /// order (as [`replay_with`]).
-pub fn replay_serial_with<R: BufRead, W: Write>(
-    mut reader: TraceReader<R>,
+pub fn replay_serial_with<S: RowSource, W: Write>(
+    mut reader: S,
     out: W,
     filter: &mut dyn AttitudeFilter,
     conditioner: &mut Conditioner,

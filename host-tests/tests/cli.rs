@@ -1,5 +1,5 @@
 //! The `host-tests` binary end to end: simulate → replay → plot, malformed inputs, bad
-//! arguments, `--config` and `--no-init-bias`.
+//! arguments, `--settings`/`--set` and `--no-init-bias`.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -147,25 +147,90 @@ fn bad_arguments_give_one_line_errors() {
 }
 
 #[test]
-fn config_file_overrides_and_rejects_unknown_keys() {
+fn settings_in_the_device_language_override_and_are_refused_as_the_device_would() {
     let dir = tempfile::tempdir().unwrap();
     let trace = simulate(dir.path(), "pitch-ramp", "30");
     let est = dir.path().join("est.csv");
-    let cfg = dir.path().join("settings.toml");
-    // A 5 s window: RMSE now counts rows from t = 5 s.
-    std::fs::write(&cfg, "[init]\nwindow_s = 5.0\n[ekf]\naccel_var_scale = 20\n").unwrap();
-    let o = run(&["replay", p(&trace), "--out", p(&est), "--config", p(&cfg)]);
+    let cfg = dir.path().join("settings.txt");
+    // A 5 s window: RMSE now counts rows from t = 5 s (1250 of the 1500 rows).
+    std::fs::write(&cfg, "# a comment\n\ninit.window = 5\nekf.accel_var_scale=20\n").unwrap();
+    let o = run(&["replay", p(&trace), "--out", p(&est), "--settings", p(&cfg)]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(stdout(&o).contains("over 1250 rows"), "{}", stdout(&o));
+    // `--set` after the file: 2 s (1400 rows).
+    let o = run(&[
+        "replay",
+        p(&trace),
+        "--out",
+        p(&est),
+        "--settings",
+        p(&cfg),
+        "--set",
+        "init.window=2",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stdout(&o).contains("over 1400 rows"), "{}", stdout(&o));
 
-    std::fs::write(&cfg, "[ekf]\naccel_var_scal = 20\n").unwrap();
+    std::fs::write(&cfg, "init.window=5\nekf.accel_var_scal=20\n").unwrap();
     let est2 = dir.path().join("est2.csv");
+    for (args, want) in [
+        (
+            vec!["--settings", p(&cfg)],
+            format!("error: {} line 2: ekf.accel_var_scal: unknown-setting", p(&cfg)),
+        ),
+        (
+            vec!["--set", "gate.jump=20"],
+            "error: --set gate.jump=20: range: valid 0.001 to 16 g".into(),
+        ),
+        (vec!["--set", "noise.accel_var=-1"], "error: --set noise.accel_var=-1: range:".into()),
+        (vec!["--set", "lever.r=1,2"], "error: --set lever.r=1,2: args: expected 3".into()),
+        (vec!["--set", "init.window=1e300"], "error: --set init.window=1e300: range:".into()),
+        (
+            vec!["--set", "ekf.accel_var_scale=nan"],
+            "error: --set ekf.accel_var_scale=nan: type:".into(),
+        ),
+    ] {
+        let mut a = vec!["replay", p(&trace), "--out", p(&est2)];
+        a.extend(&args);
+        let o = run(&a);
+        assert!(!o.status.success(), "{args:?}");
+        let err = stderr(&o);
+        assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+        assert!(err.starts_with(&want), "{args:?}: {err}");
+        assert!(!est2.exists());
+    }
+    // The old TOML option is gone.
     let o = run(&["replay", p(&trace), "--out", p(&est2), "--config", p(&cfg)]);
     assert!(!o.status.success());
+}
+
+#[test]
+fn settings_acting_before_the_trace_are_named_not_applied() {
+    let dir = tempfile::tempdir().unwrap();
+    let trace = simulate(dir.path(), "pitch-sine", "12");
+    let (a, b) = (dir.path().join("a.csv"), dir.path().join("b.csv"));
+    let o = run(&["replay", p(&trace), "--out", p(&a)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(stderr(&o), "", "no settings, no notes");
+    let o = run(&[
+        "replay",
+        p(&trace),
+        "--out",
+        p(&b),
+        "--set",
+        "axes.gyro=y,x,-z",
+        "--set",
+        "output.rate=5",
+        "--set",
+        "gyro.offset=1,2,3",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
     let err = stderr(&o);
-    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
-    assert!(err.contains("accel_var_scal"), "{err}");
-    assert!(!est2.exists());
+    assert!(err.contains("not applied: axes.gyro (a trace is in body axes already)"), "{err}");
+    assert!(err.contains("not applied: output.rate ("), "{err}");
+    assert!(err.contains("not applied: gyro.offset ("), "{err}");
+    // And indeed nothing changed.
+    assert_eq!(std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap());
 }
 
 /// The estimate file's bias_z (°/s) on the first row after the initialisation window.
@@ -283,8 +348,6 @@ fn replay_scores_a_recording_and_foreign_drops_the_seahog_specifics() {
     let (_, rows) = host_tests::trace::read_trace_file(&file).expect("RepoIMU recording");
     let dir = tempfile::tempdir().unwrap();
     let est = dir.path().join("est.csv");
-    let toml = dir.path().join("arm.toml");
-    std::fs::write(&toml, "[lever_arm]\nr = [0.1, 0.0, 0.0]\n").unwrap();
 
     let mut foreign = ReplayConfig::default();
     foreign.conditioning.lever_arm = LeverArm::NONE;
@@ -300,9 +363,9 @@ fn replay_scores_a_recording_and_foreign_drops_the_seahog_specifics() {
         (vec![], ReplayConfig::default(), None),
         (vec!["--foreign"], foreign, Some(foreign_line.to_string())),
         (
-            vec!["--foreign", "--config", p(&toml)],
+            vec!["--foreign", "--set", "lever.r=0.1,0,0"],
             foreign_arm,
-            Some(format!("{foreign_line}, then --config on top")),
+            Some(format!("{foreign_line}, then the given settings on top")),
         ),
     ] {
         let mut args = vec!["replay", p(&file), "--out", p(&est)];
@@ -409,4 +472,171 @@ fn replay_outputs_never_replace_the_input_and_stdout_and_devices_work() {
     let o = run(&["replay", p(&trace), "--out", "/dev/null"]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(!std::fs::metadata("/dev/null").unwrap().is_file());
+}
+
+#[test]
+fn skip_bad_rows_passes_over_malformed_rows_and_reports_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let trace = simulate(dir.path(), "pitch-sine", "12");
+    let text = std::fs::read_to_string(&trace).unwrap();
+    // Damage data rows 100, 200 and 300 (file lines counted from 1) and cut the last one.
+    let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
+    let first_data = lines.iter().position(|l| !l.starts_with('#')).unwrap() + 1;
+    let bad = [first_data + 100, first_data + 200, first_data + 300];
+    for &i in &bad {
+        lines[i] = lines[i].replacen(',', ",x", 1);
+    }
+    let last = lines.len() - 1;
+    let half = lines[last].len() / 2;
+    lines[last].truncate(half);
+    let damaged = dir.path().join("damaged.csv");
+    std::fs::write(&damaged, lines.join("\n")).unwrap();
+    let est = dir.path().join("est.csv");
+    // Strict: the first bad row stops the run, naming its line.
+    let o = run(&["replay", p(&damaged), "--out", p(&est)]);
+    assert!(!o.status.success());
+    assert!(
+        stderr(&o).starts_with(&format!("error: {}: line {}", p(&damaged), bad[0] + 1)),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!est.exists());
+    // Lenient: every other row replayed, the four reported.
+    let o = run(&["replay", p(&damaged), "--out", p(&est), "--skip-bad-rows"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let want = format!(
+        "replay: skipped 4 malformed rows (lines {}, {}, {}, {}; first: line {}",
+        bad[0] + 1,
+        bad[1] + 1,
+        bad[2] + 1,
+        last + 1,
+        bad[0] + 1
+    );
+    assert!(stderr(&o).contains(&want), "{}", stderr(&o));
+    assert!(stdout(&o).contains("replay: 596 rows"), "{}", stdout(&o));
+    let est_rows = std::fs::read_to_string(&est).unwrap().lines().count() - 1;
+    assert_eq!(est_rows, 596);
+}
+
+#[test]
+fn unfinished_and_moving_starts_are_warned_about() {
+    let dir = tempfile::tempdir().unwrap();
+    let est = dir.path().join("est.csv");
+    // 3 s: shorter than the 10 s window.
+    let short = simulate(dir.path(), "pitch-sine", "3");
+    let o = run(&["replay", p(&short), "--out", p(&est)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("warning: the initialisation never completed"), "{}", stderr(&o));
+    // Long enough: no warning.
+    let long = simulate(dir.path(), "pitch-sine", "12");
+    let o = run(&["replay", p(&long), "--out", p(&est)]);
+    assert!(!stderr(&o).contains("warning"), "{}", stderr(&o));
+    // Moving from the first sample.
+    let moving = simulate(dir.path(), "start-moving", "30");
+    let o = run(&["replay", p(&moving), "--out", p(&est)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("warning: the start was not still (MOVING_START)"),
+        "{}",
+        stderr(&o)
+    );
+}
+
+/// A trace shaped as `ahrs-tool log` writes it: the CSV header, then the comments of
+/// `TraceMeta::log_comments` (the conditioning its samples had, the device's settings).
+/// Also the device's settings as a settings file (what `ahrs-tool settings get` writes).
+fn as_logged(trace: &Path, device: &[&str], out: &Path, settings: &Path) {
+    use host_tests::settings::{parse_assignment, settings_file_text, TraceMeta};
+    let mut s = inemo_ahrs::pipeline::PipelineSettings::default();
+    for t in device {
+        let a = parse_assignment(t).unwrap();
+        assert!(a.setting.set(&mut s, a.value));
+    }
+    std::fs::write(settings, settings_file_text(&s, &["a test device".into()])).unwrap();
+    let text = std::fs::read_to_string(trace).unwrap();
+    let (header, rest) = text.split_once('\n').unwrap();
+    let mut log = format!("{header}\n# raw mode log from a test\n");
+    for c in TraceMeta::log_comments(&s) {
+        log.push_str(&format!("# {c}\n"));
+    }
+    log.push_str(rest);
+    std::fs::write(out, log).unwrap();
+}
+
+#[test]
+fn a_logged_dive_replays_with_the_device_settings_and_no_second_lever_arm() {
+    let dir = tempfile::tempdir().unwrap();
+    let trace = simulate(dir.path(), "coupled", "30");
+    let dive = dir.path().join("dive.csv");
+    let dev = dir.path().join("device.txt");
+    as_logged(&trace, &["gate.jump=0.3", "lever.r=1,-0.5,0.2"], &dive, &dev);
+    let f = |n: &str| dir.path().join(n);
+    let o = run(&["replay", p(&dive), "--out", p(&f("a.csv"))]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(
+        stderr(&o),
+        "replay: trace header: 71 device settings applied; its samples already had the lever \
+         arm (none added)\n"
+            .replace("71", &inemo_ahrs::registry::SETTINGS.len().to_string())
+    );
+    // The same as the bare trace with the device's settings (through the same 7-digit text)
+    // and no lever arm ...
+    let o = run(&[
+        "replay",
+        p(&trace),
+        "--out",
+        p(&f("b.csv")),
+        "--settings",
+        p(&dev),
+        "--set",
+        "lever.r=0,0,0",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(std::fs::read(f("a.csv")).unwrap(), std::fs::read(f("b.csv")).unwrap());
+    // ... and not as with the device's arm applied once more.
+    let o = run(&["replay", p(&trace), "--out", p(&f("c.csv")), "--settings", p(&dev)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_ne!(std::fs::read(f("a.csv")).unwrap(), std::fs::read(f("c.csv")).unwrap());
+    // A lever arm given for such a trace is named as not applied.
+    let o = run(&["replay", p(&dive), "--out", p(&f("d.csv")), "--set", "lever.r=0.1,0,0"]);
+    assert!(stderr(&o).contains("not applied: lever.r (the trace says its samples already had"));
+    assert_eq!(std::fs::read(f("a.csv")).unwrap(), std::fs::read(f("d.csv")).unwrap());
+}
+
+/// `docs/tuning.md`, "Try a change on a recorded dive first", and `docs/replay.md`: the
+/// commands as written there, on a dive shaped as `ahrs-tool log` writes it.
+#[test]
+fn the_documented_try_it_on_a_recorded_dive_commands_work() {
+    let dir = tempfile::tempdir().unwrap();
+    let trace = simulate(dir.path(), "coupled", "30");
+    let dive = dir.path().join("dive.csv");
+    as_logged(&trace, &[], &dive, &dir.path().join("device.txt"));
+    let cd = |args: &[&str]| {
+        Command::new(BIN).current_dir(dir.path()).args(args).output().expect("run host-tests")
+    };
+    let before = cd(&["replay", "dive.csv", "--out", "before.csv"]);
+    assert!(before.status.success(), "{}", stderr(&before));
+    let after = cd(&[
+        "replay",
+        "dive.csv",
+        "--out",
+        "after.csv",
+        "--set",
+        "gate.jump=0.1",
+        "--set",
+        "ekf.accel_var_scale=20",
+    ]);
+    assert!(after.status.success(), "{}", stderr(&after));
+    assert!(!stderr(&after).contains("not applied:"), "{}", stderr(&after));
+    let read = |n: &str| std::fs::read(dir.path().join(n)).unwrap();
+    assert_ne!(read("before.csv"), read("after.csv"));
+    let file = cd(&["replay", "dive.csv", "--out", "file.csv", "--settings", "device.txt"]);
+    assert!(file.status.success(), "{}", stderr(&file));
+    // A device's whole file: the settings a replay cannot apply are named, the rest applied.
+    assert!(
+        stderr(&file).contains("not applied: axes.gyro, axes.accel, axes.mag"),
+        "{}",
+        stderr(&file)
+    );
+    assert_eq!(read("before.csv"), read("file.csv"));
 }
