@@ -226,7 +226,11 @@ mod firmware {
             imu::ADDR_TIMEOUT_US,
             imu::DATA_TIMEOUT_US,
         );
-        let mut imu = Imu::new(i2c, settings.filter_rate_hz);
+        // Every transfer with interrupts masked (ES0340 §2.13.2); the bus cleared now (a slave
+        // may still be in a transfer the reset cut short) and after repeated failures.
+        let bus = imu::Bus::new(imu::HalBus::new(i2c, sysclk_hz), imu::Primask);
+        let bus_clear = bus.counters.last_clear;
+        let mut imu = Imu::new(bus, settings.filter_rate_hz);
         // A failure here is not fatal: the filter retries once per second meanwhile.
         let imu_result = imu.configure();
 
@@ -251,6 +255,11 @@ mod firmware {
             settings.filter_rate_hz,
             adc_scan::FRAME_HZ
         );
+        if let Some(found) = bus_clear {
+            if !matches!(found, inemo_ahrs::supervision::i2c_bus::Clear::Freed { .. }) {
+                defmt::error!("I2C bus clear at boot: {=str}", found.name());
+            }
+        }
         match imu_result {
             Ok(wrong_id) => {
                 if let Some(id) = wrong_id {
@@ -582,13 +591,14 @@ mod firmware {
                     );
                 }
                 defmt::info!(
-                    "cycle {=u32}: max {=u32} us, status {=u32:#x}, overruns {=u32}, ADC lost {=u32}, I2C errors {=u32}, tx dropped {=u32}",
+                    "cycle {=u32}: max {=u32} us, status {=u32:#x}, overruns {=u32}, ADC lost {=u32}, I2C errors {=u32}, bus clears {=u32}, tx dropped {=u32}",
                     cycle,
                     max_cycle_us,
                     step.status.0,
                     overruns,
                     lost_frames,
                     cx.local.imu.counters.i2c_errors,
+                    cx.local.imu.bus().counters.clears,
                     cx.local.tx.dropped
                 );
                 max_cycle_us = 0;
