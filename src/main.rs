@@ -159,7 +159,7 @@ mod firmware {
 
         let reset = clocks::take_reset_cause(&dp.RCC);
         // From here a hang resets the MCU (first feed at the end of the first healthy cycle).
-        let watchdog = Watchdog::start(dp.IWDG, &dp.DBGMCU);
+        let watchdog = crate::app::watchdog::start(dp.IWDG, &dp.DBGMCU);
         #[cfg_attr(not(feature = "serial-commands"), allow(unused_variables))]
         let (mut rcc, source, flash) = clocks::freeze(dp.RCC, dp.FLASH);
 
@@ -200,7 +200,12 @@ mod firmware {
         let usart2_dr = dp.USART2.dr().as_ptr() as u32;
         let serial = Serial::new(
             dp.USART2,
-            (gpioa.pa2.into_alternate_push_pull(&mut gpioa.crl), gpioa.pa3),
+            // RX with the internal pull-up: an open RX line (no cable) idles high instead of
+            // floating into noise that the receiver would take for bytes (framing errors).
+            (
+                gpioa.pa2.into_alternate_push_pull(&mut gpioa.crl),
+                gpioa.pa3.into_pull_up_input(&mut gpioa.crl),
+            ),
             Config::default().baudrate(Bps(board::USART_BAUD)),
             &mut rcc,
         );
@@ -274,6 +279,15 @@ mod firmware {
         }
         if !adc_scan.calibrated() {
             defmt::error!("ADC calibration did not complete");
+        }
+        let ranks = adc_scan.ranks();
+        if !ranks.aligned() {
+            defmt::error!(
+                "ADC ranks do not read like their channels: VREFINT gives VDDA {=?}, gyro references {=f32} V and {=f32} V",
+                ranks.vdda_v,
+                ranks.xy_ref_v,
+                ranks.z_ref_v
+            );
         }
         if source == ClockSource::Hsi {
             defmt::error!("HSE did not start: running from HSI at 64 MHz");
