@@ -57,6 +57,7 @@ mod firmware {
     #[cfg(not(feature = "serial-commands"))]
     use inemo_ahrs::pipeline::PipelineSettings;
     use inemo_ahrs::supervision::{
+        clock_check::HseCheck,
         led::{self, Health},
         watchdog::{FeedPolicy, Verdict},
     };
@@ -161,7 +162,7 @@ mod firmware {
         // From here a hang resets the MCU (first feed at the end of the first healthy cycle).
         let watchdog = crate::app::watchdog::start(dp.IWDG, &dp.DBGMCU);
         #[cfg_attr(not(feature = "serial-commands"), allow(unused_variables))]
-        let (mut rcc, source, flash) = clocks::freeze(dp.RCC, dp.FLASH);
+        let (mut rcc, source, flash, hse_check) = clocks::freeze(dp.RCC, dp.FLASH);
 
         // The settings: the newest valid flash record, else the defaults.
         #[cfg(feature = "serial-commands")]
@@ -289,8 +290,13 @@ mod firmware {
                 ranks.z_ref_v
             );
         }
-        if source == ClockSource::Hsi {
-            defmt::error!("HSE did not start: running from HSI at 64 MHz");
+        match hse_check {
+            HseCheck::Ok(hz) => defmt::println!("HSE measured at {=u32} Hz", hz),
+            HseCheck::Unmeasured => defmt::warn!("HSE running, its frequency not measured"),
+            HseCheck::WrongFrequency(hz) => {
+                defmt::error!("HSE runs at {=u32} Hz, not 8 MHz: running from HSI at 64 MHz", hz)
+            }
+            HseCheck::NotStarted => defmt::error!("HSE did not start: running from HSI at 64 MHz"),
         }
         #[cfg(feature = "serial-commands")]
         match loaded.source {

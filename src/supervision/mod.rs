@@ -3,11 +3,14 @@
 //! - [`reset_cause`]: why the MCU last reset, from the RCC_CSR flags (reported at boot);
 //! - [`led`]: which LED pattern (init, running, fault) for what the filter reported;
 //! - [`watchdog`]: whether a filter cycle was healthy enough to feed the independent watchdog;
+//! - [`clock_check`]: whether the crystal is the 8 MHz one (measured against the HSI through
+//!   the LSI at boot), else the HSI;
 //! - [`i2c_bus`]: the I²C bus with every transfer under an interrupt mask, and the bus clear
 //!   (nine clocks and a STOP) at boot and after repeated failures;
 //! - [`imu`]: the LSM303DLH's read schedule with bounded retries, re-configuration after
 //!   failures and stuck-data detection.
 
+pub mod clock_check;
 pub mod i2c_bus;
 pub mod imu;
 pub mod led;
