@@ -90,8 +90,7 @@ mod firmware {
     use crate::app::settings_flash::SettingsFlash;
     use crate::app::{
         adc_scan::{self, AdcPins, AdcScan},
-        clocks::{self, ClockSource},
-        i2c_clock_hz,
+        clocks, i2c_clock_hz,
         imu::{self, Imu},
         uart_tx::{DmaTx, TX_BUF_LEN},
         watchdog::Watchdog,
