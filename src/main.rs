@@ -59,6 +59,7 @@ mod firmware {
     use inemo_ahrs::supervision::{
         clock_check::HseCheck,
         led::{self, Health},
+        selftest,
         watchdog::{FeedPolicy, Verdict},
     };
     use inemo_ahrs::{
@@ -138,6 +139,7 @@ mod firmware {
         tx: DmaTx,
         led: PB9<Output<PushPull>>,
         sysclk_hz: u32,
+        board: selftest::Inputs,
         #[cfg(feature = "serial-commands")]
         serial_rx: Rx<USART2>,
         #[cfg(feature = "serial-commands")]
@@ -152,6 +154,10 @@ mod firmware {
     fn init(cx: init::Context) -> (Shared, Local) {
         let mut core = cx.core;
         let dp = cx.device;
+        // The previous run's fault record (RAM kept across the reset), then the stack painted
+        // for the high-water mark.
+        let fault = crate::app::fault::take();
+        crate::app::stack::paint();
 
         // The cycle counter: filter timing, and BlockingI2c's timeouts depend on it.
         core.DCB.enable_trace();
@@ -238,6 +244,11 @@ mod firmware {
         let mut imu = Imu::new(bus, settings.filter_rate_hz);
         // A failure here is not fatal: the filter retries once per second meanwhile.
         let imu_result = imu.configure();
+        let mag_id_ok = match &imu_result {
+            Ok(None) => Some(true),
+            Ok(Some(_)) => Some(false),
+            Err(_) => None,
+        };
 
         // ADC1 scan of the six channels, TIM3-triggered, by DMA1 channel 1.
         let pins = AdcPins(
@@ -281,6 +292,36 @@ mod firmware {
             defmt::error!("ADC calibration did not complete");
         }
         let ranks = adc_scan.ranks();
+        // What the self-test grades (`SELFTEST`, and the report after the first cycle): the
+        // boot's findings; the filter task keeps the live readings current.
+        let bus = imu.bus().counters;
+        let board = selftest::Inputs {
+            hse: Some(hse_check),
+            vdda_v: ranks.vdda_v,
+            ranks_aligned: ranks.aligned(),
+            mag_id_ok,
+            xy_ref_v: Some(ranks.xy_ref_v),
+            z_ref_v: Some(ranks.z_ref_v),
+            depth_v: Some((ranks.depth_v, false)),
+            bus_clears: bus.clears,
+            last_clear: bus.last_clear,
+            #[cfg(feature = "serial-commands")]
+            settings_from_flash: matches!(loaded.source, Source::Flash { .. }),
+            fault: fault.map(|(kind, _)| kind),
+            ..selftest::Inputs::default()
+        };
+        if let Some((kind, regs)) = fault {
+            defmt::error!(
+                "the last run ended in {=str} ({=str}): PC {=u32:#010x}, LR {=u32:#010x}, CFSR {=u32:#010x}, HFSR {=u32:#010x}, line {=u32}",
+                kind.name(),
+                inemo_ahrs::supervision::fault_record::cause(&regs),
+                regs.pc,
+                regs.lr,
+                regs.cfsr,
+                regs.hfsr,
+                regs.line
+            );
+        }
         if !ranks.aligned() {
             defmt::error!(
                 "ADC ranks do not read like their channels: VREFINT gives VDDA {=?}, gyro references {=f32} V and {=f32} V",
@@ -317,9 +358,14 @@ mod firmware {
         #[cfg(not(feature = "serial-commands"))]
         let settings_field = None;
         let version = env!("CARGO_PKG_VERSION");
+        // The boot sentence, and the fault record's report when there is one.
+        let fault_report = fault.map(|(kind, regs)| inemo_ahrs::command::fault_reply(kind, &regs));
         match nmea::pinab(source.tag(), reset, imu.configured(), version, settings_field) {
             Ok(s) => {
-                tx.send([s.as_bytes()]);
+                match &fault_report {
+                    Some(f) => tx.send([s.as_bytes(), f.as_bytes()]),
+                    None => tx.send([s.as_bytes()]),
+                };
             }
             Err(_) => defmt::error!("boot sentence does not fit"),
         }
@@ -353,6 +399,7 @@ mod firmware {
                 tx,
                 led,
                 sysclk_hz,
+                board,
                 #[cfg(feature = "serial-commands")]
                 serial_rx,
                 #[cfg(feature = "serial-commands")]
@@ -481,7 +528,7 @@ mod firmware {
     /// A cycle is healthy when it runs to its end and the estimator has not reported a health
     /// reset in each of the last `HEALTH_RESET_STORM` cycles (`supervision::watchdog`); only
     /// then is the watchdog fed.
-    #[task(priority = 2, local = [imu, pipeline, tx, sysclk_hz, watchdog], shared = [adc, health, rx, cmd])]
+    #[task(priority = 2, local = [imu, pipeline, tx, sysclk_hz, watchdog, board], shared = [adc, health, rx, cmd])]
     async fn filter(mut cx: filter::Context) {
         #[cfg(feature = "serial-commands")]
         let (mut period, mut nominal_dt, mut stats_every, mut budget) =
@@ -528,6 +575,15 @@ mod firmware {
             }
 
             let reading = cx.local.imu.read();
+            crate::app::update_board(cx.local.board, &reading, adc.as_ref(), cx.local.imu);
+            if cycle == 0 {
+                let report = selftest::evaluate(cx.local.board);
+                defmt::println!(
+                    "self-test: {=str}, grades {=u32:05x} (docs/bring-up.md)",
+                    report.overall().name(),
+                    report.code()
+                );
+            }
             if let Some(event) = &reading.event {
                 imu::log_event(event);
             }
@@ -567,7 +623,14 @@ mod firmware {
                     if raw { pipeline.conditioned_sample(&inputs) } else { ImuSample::default() };
                 let step = pipeline.step(&inputs);
                 let tx = &mut *cx.local.tx;
+                let board = *cx.local.board;
                 cx.shared.cmd.lock(|c| {
+                    c.device.set_board(board);
+                    if cycle == 0 {
+                        // The boot's self-test report, as `SELFTEST` replies.
+                        c.replies
+                            .push(inemo_ahrs::command::selftest_reply("SELFTEST", &board).finish());
+                    }
                     let mut out = c.device.on_cycle(&inputs, &sample);
                     c.record(out.reply.take(), out.action.take());
                     if raw {
@@ -596,6 +659,13 @@ mod firmware {
             last_cycle_us = DWT::cycle_count().wrapping_sub(start) / cycles_per_us;
             max_cycle_us = max_cycle_us.max(last_cycle_us);
             cycle = cycle.wrapping_add(1);
+            if cycle == 1 || cycle % stats_every == 0 {
+                // The stack's high-water mark (a scan of the painted stack, ≈ 0.1 ms).
+                let stack_used = crate::app::stack::used();
+                defmt::info!("stack: {=u32} bytes used at most", stack_used);
+                #[cfg(feature = "serial-commands")]
+                cx.shared.cmd.lock(|c| c.device.set_stack_used(stack_used));
+            }
             if cycle % stats_every == 0 {
                 #[cfg(feature = "serial-commands")]
                 {

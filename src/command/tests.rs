@@ -97,7 +97,7 @@ fn version_status_and_list() {
     assert_eq!(r, format!("PINAR,OK,VER,inemo-ahrs,{},1,{}", VERSION, SETTINGS.len()));
     assert!(a.is_none());
     // Both pages invalid at boot: defaults, flagged.
-    assert_eq!(run(&mut d, &mut f, "PINAC,STATUS").0, "PINAR,OK,STATUS,DEFAULTS,,POR,0001,00");
+    assert_eq!(run(&mut d, &mut f, "PINAC,STATUS").0, "PINAR,OK,STATUS,DEFAULTS,,POR,0001,00,,");
     assert_eq!(
         run(&mut d, &mut f, "PINAC,LIST,0").0,
         "PINAR,OK,LIST,0,68,noise.gyro_var,f32x3,(deg/s)2"
@@ -112,6 +112,25 @@ fn version_status_and_list() {
     // A reset cause that cannot be sent is shown as `?`.
     let mut d = Device::new(&persist::load(&SimFlash::new()), "a,b");
     assert!(run(&mut d, &mut f, "PINAC,STATUS").0.contains(",?,"));
+}
+
+#[test]
+fn status_and_selftest_report_the_board() {
+    use crate::supervision::{fault_record::FaultKind, selftest};
+    let mut d = Device::new(&persist::load(&SimFlash::new()), "IWDG");
+    let mut f = SimFlash::new();
+    // Nothing measured yet (the emulator): every measured field empty, the grade FAIL.
+    let (r, a) = run(&mut d, &mut f, "PINAC,SELFTEST");
+    assert!(r.starts_with("PINAR,OK,SELFTEST,FAIL,"), "{r}");
+    assert!(a.is_none());
+    assert_eq!(refused(&mut d, &mut f, &cmd("PINAC,SELFTEST,1")), "PINAR,ERR,SELFTEST,args");
+    // The board reported a fault record at boot and a stack high-water mark.
+    d.set_board(selftest::Inputs { fault: Some(FaultKind::HardFault), ..Default::default() });
+    d.set_stack_used(2412);
+    assert_eq!(
+        run(&mut d, &mut f, "PINAC,STATUS").0,
+        "PINAR,OK,STATUS,DEFAULTS,,IWDG,0001,00,HARDFAULT,2412"
+    );
 }
 
 #[test]
@@ -150,7 +169,7 @@ fn get_and_set_every_setting() {
     assert!((d.settings().filter.ekf.yaw_drift_rate - mathf::deg(16.2) / 3600.0).abs() < 1e-10);
     let (r, _) = run(&mut d, &mut f, "PINAC,SET,accel_cal.o,0.01,-0.02,1e-3");
     assert_eq!(r, "PINAR,OK,SET,accel_cal.o,0.01,-0.02,0.001");
-    assert_eq!(run(&mut d, &mut f, "PINAC,STATUS").0, "PINAR,OK,STATUS,DEFAULTS,,POR,0003,00");
+    assert_eq!(run(&mut d, &mut f, "PINAC,STATUS").0, "PINAR,OK,STATUS,DEFAULTS,,POR,0003,00,,");
 }
 
 #[test]
@@ -418,7 +437,7 @@ fn six_position_accelerometer_calibration() {
         }
         fit.add_position(pos, Vec3::new(mean[0], mean[1], mean[2]));
     }
-    assert_eq!(run(&mut d, &mut f, "PINAC,STATUS").0, "PINAR,OK,STATUS,DEFAULTS,,POR,0001,3F");
+    assert_eq!(run(&mut d, &mut f, "PINAC,STATUS").0, "PINAR,OK,STATUS,DEFAULTS,,POR,0001,3F,,");
     // The host fits X from the six means and sets it row by row.
     let cal = fit.solve().unwrap();
     for (row, name) in cal.x.iter().zip(["x", "y", "z", "o"]) {
@@ -441,7 +460,7 @@ fn six_position_accelerometer_calibration() {
     }
     assert_eq!(reply.as_deref(), Some("PINAR,ERR,ACAL,position"));
     assert_eq!(run(&mut d, &mut f, "PINAC,ACAL,CLEAR").0, "PINAR,OK,ACAL,CLEAR");
-    assert_eq!(run(&mut d, &mut f, "PINAC,STATUS").0, "PINAR,OK,STATUS,DEFAULTS,,POR,0003,00");
+    assert_eq!(run(&mut d, &mut f, "PINAC,STATUS").0, "PINAR,OK,STATUS,DEFAULTS,,POR,0003,00,,");
 }
 
 #[test]
@@ -450,19 +469,19 @@ fn save_load_reset_and_status() {
     let mut f = SimFlash::new();
     run(&mut d, &mut f, "PINAC,SET,depth.density,998");
     assert_eq!(run(&mut d, &mut f, "PINAC,SAVE").0, "PINAR,OK,SAVE,A,1");
-    assert_eq!(run(&mut d, &mut f, "PINAC,STATUS").0, "PINAR,OK,STATUS,A,1,POR,0001,00");
+    assert_eq!(run(&mut d, &mut f, "PINAC,STATUS").0, "PINAR,OK,STATUS,A,1,POR,0001,00,,");
     run(&mut d, &mut f, "PINAC,SET,depth.density,1000");
     assert_eq!(run(&mut d, &mut f, "PINAC,SAVE").0, "PINAR,OK,SAVE,B,2");
     let (r, a) = run(&mut d, &mut f, "PINAC,RESET");
     assert_eq!(r, "PINAR,OK,RESET");
     assert!(a.is_some());
     assert_eq!(*d.settings(), PipelineSettings::default());
-    assert_eq!(run(&mut d, &mut f, "PINAC,STATUS").0, "PINAR,OK,STATUS,DEFAULTS,,POR,0003,00");
+    assert_eq!(run(&mut d, &mut f, "PINAC,STATUS").0, "PINAR,OK,STATUS,DEFAULTS,,POR,0003,00,,");
     let (r, a) = run(&mut d, &mut f, "PINAC,LOAD");
     assert_eq!(r, "PINAR,OK,LOAD,B,2,0,0");
     assert!(a.is_some());
     assert_eq!(d.settings().depth.water_density_kg_m3, 1000.0);
-    assert_eq!(run(&mut d, &mut f, "PINAC,STATUS").0, "PINAR,OK,STATUS,B,2,POR,0000,00");
+    assert_eq!(run(&mut d, &mut f, "PINAC,STATUS").0, "PINAR,OK,STATUS,B,2,POR,0000,00,,");
     // A reboot finds the same.
     let d2 = Device::new(&persist::load(&f), "WDG");
     assert_eq!(d2.settings(), d.settings());
