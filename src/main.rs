@@ -660,7 +660,8 @@ mod firmware {
             max_cycle_us = max_cycle_us.max(last_cycle_us);
             cycle = cycle.wrapping_add(1);
             if cycle == 1 || cycle % stats_every == 0 {
-                // The stack's high-water mark (a scan of the painted stack, ≈ 0.1 ms).
+                // The stack's high-water mark (a scan of the painted stack from the bottom of RAM:
+                // about 13,000 words, 0.6 ms at 72 MHz, every 10 s).
                 let stack_used = crate::app::stack::used();
                 defmt::info!("stack: {=u32} bytes used at most", stack_used);
                 #[cfg(feature = "serial-commands")]
