@@ -7,7 +7,7 @@
 //! | task | kind | prio | does |
 //! |---|---|---|---|
 //! | `adc_frame` | hardware, DMA1_CHANNEL1 | 3 | copies the finished ADC frame (1 kHz) into the shared `Averager` |
-//! | `usart2_rx` | hardware, USART2 (RXNE) | 3 | received bytes → `LineAssembler`; complete lines queued for `command` |
+//! | `usart2_rx` | hardware, USART2 (RXNE) | 4 | received bytes → `LineAssembler`; complete lines queued for `command` |
 //! | `filter` | async, every 1/filter_rate_hz (SysTick monotonic) | 2 | applies pending command actions (*commands*), reads the LSM303DLH, takes the ADC mean, runs `Pipeline::step` and `Device::on_cycle` (*commands*), starts the USART DMA (sentences + queued replies), feeds the watchdog |
 //! | `command` | async, spawned per received line | 1 | `Device::handle` (may write the settings flash), queues the reply and the action |
 //! | `blink` | async, 50 ms slots | 1 | LED pattern from the status the filter reported |
@@ -237,9 +237,9 @@ mod firmware {
             imu::ADDR_TIMEOUT_US,
             imu::DATA_TIMEOUT_US,
         );
-        // Every transfer with interrupts masked (ES0340 §2.13.2); the bus cleared now (a slave
+        // Every transfer with the ADC's interrupt and below masked (ES0340 §2.13.2; `imu::Masked`); the bus cleared now (a slave
         // may still be in a transfer the reset cut short) and after repeated failures.
-        let bus = imu::Bus::new(imu::HalBus::new(i2c, sysclk_hz), imu::Primask);
+        let bus = imu::Bus::new(imu::HalBus::new(i2c, sysclk_hz), imu::Masked);
         let bus_clear = bus.counters.last_clear;
         let mut imu = Imu::new(bus, settings.filter_rate_hz);
         // A failure here is not fatal: the filter retries once per second meanwhile.
@@ -425,7 +425,7 @@ mod firmware {
 
     /// Received bytes: into the line assembler; a complete line is queued for `command`.
     #[cfg(feature = "serial-commands")]
-    #[task(binds = USART2, priority = 3, local = [serial_rx, assembler: LineAssembler = LineAssembler::new()], shared = [rx])]
+    #[task(binds = USART2, priority = 4, local = [serial_rx, assembler: LineAssembler = LineAssembler::new()], shared = [rx])]
     fn usart2_rx(mut cx: usart2_rx::Context) {
         for _ in 0..RX_READS_PER_IRQ {
             if !cx.local.serial_rx.is_rx_not_empty() && !rx_error() {

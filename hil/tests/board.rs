@@ -164,7 +164,7 @@ mod tests {
             imu::ADDR_TIMEOUT_US,
             imu::DATA_TIMEOUT_US,
         );
-        let mut dev = Lsm303dlh::new(imu::Bus::new(imu::HalBus::new(i2c, sysclk), imu::Primask));
+        let mut dev = Lsm303dlh::new(imu::Bus::new(imu::HalBus::new(i2c, sysclk), imu::Masked));
         let clear = dev.bus().counters.last_clear;
         defmt::assert!(
             dev.check_mag_id().is_ok(),

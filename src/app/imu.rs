@@ -9,7 +9,9 @@
 //! the bus is cleared at boot and after repeated failures: the library's
 //! [`GuardedBus`](inemo_ahrs::supervision::i2c_bus::GuardedBus) (host-tested against a model of
 //! a stuck slave); here only its hardware: [`HalBus`] (the HAL's whole transfers, never its
-//! `todo!()` `transaction`), [`Primask`] and [`Pins`] (PB10/PB11 as open-drain GPIOs).
+//! `todo!()` `transaction`), [`Masked`] and [`Pins`] (PB10/PB11 as open-drain GPIOs).
+
+use core::sync::atomic::{compiler_fence, Ordering};
 
 use inemo_ahrs::lsm303dlh::Error;
 use inemo_ahrs::supervision::i2c_bus::{self, BusError, BusLines, Clear, GuardedBus, Mask, RawI2c};
@@ -20,7 +22,7 @@ use stm32f1xx_hal::{
 };
 
 /// The bus type.
-pub type Bus = GuardedBus<HalBus, Primask>;
+pub type Bus = GuardedBus<HalBus, Masked>;
 /// The sensor with its read schedule on I²C2.
 pub type Imu = inemo_ahrs::supervision::imu::Imu<Bus>;
 type DevError = Error<BusError<i2c::Error>>;
@@ -108,13 +110,37 @@ impl BusLines for Pins<'_> {
     }
 }
 
-/// Interrupts masked with PRIMASK (everything but NMI and HardFault): SysTick runs at the
-/// highest priority in this firmware, so BASEPRI would not hold it off.
-pub struct Primask;
+/// The logical priority up to which interrupts are held off during a transfer: the ADC's DMA
+/// interrupt (3) and every task below it. Above it run only the USART2 RX interrupt (4) and
+/// SysTick (hardware priority 0, the monotonic's): each takes a few µs, well inside the
+/// 22.5 µs of a byte at 400 kHz in which ES0340 §2.13.2's events must be handled. Masking them
+/// too (PRIMASK, as ST's own driver does) would cost more than it protects: the SysTick
+/// monotonic counts its 10 kHz ticks by interrupt, so a 0.2 ms mask loses two (the filter's
+/// period would stretch by 1 %), and the USART, which holds one received byte, would overrun.
+pub const MASKED_PRIORITY: u8 = 3;
+/// BASEPRI for [`MASKED_PRIORITY`]: RTIC's logical priority p is hardware priority
+/// (2^NVIC_PRIO_BITS − p) << (8 − NVIC_PRIO_BITS) (4 priority bits on the STM32F1).
+const MASK_BASEPRI: u8 = {
+    let bits = pac::NVIC_PRIO_BITS;
+    ((1 << bits) - MASKED_PRIORITY) << (8 - bits)
+};
 
-impl Mask for Primask {
+/// Interrupts up to [`MASKED_PRIORITY`] held off with BASEPRI (as an RTIC lock of that ceiling
+/// does: raised with `basepri_max`, the previous value restored).
+pub struct Masked;
+
+impl Mask for Masked {
     fn masked<R>(&mut self, f: impl FnOnce() -> R) -> R {
-        cortex_m::interrupt::free(|_| f())
+        let previous = cortex_m::register::basepri::read();
+        // Raising BASEPRI only masks more; the previous value is restored below, as RTIC's own
+        // locks do.
+        cortex_m::register::basepri_max::write(MASK_BASEPRI);
+        compiler_fence(Ordering::SeqCst);
+        let r = f();
+        compiler_fence(Ordering::SeqCst);
+        // SAFETY: the value read on entry.
+        unsafe { cortex_m::register::basepri::write(previous) };
+        r
     }
 }
 

@@ -7,8 +7,8 @@
 //!   "Some software events must be managed before the current byte is being transferred"). The
 //!   workaround the errata gives is DMA or an interrupt mask around the transfer, which is what
 //!   ST's own iNEMO driver does. [`GuardedBus`] runs every transfer inside [`Mask::masked`]
-//!   (the firmware: `cortex_m::interrupt::free`, PRIMASK; at 400 kHz a 6-byte read holds it
-//!   about 0.2 ms).
+//!   (the firmware: BASEPRI up to the ADC's DMA interrupt, about 0.2 ms for a 6-byte read at
+//!   400 kHz; what stays unmasked and why: `app::imu::Masked`).
 //! - **Only the transfers the HAL implements.** `stm32f1xx-hal` 0.11's
 //!   `BlockingI2c::transaction` is `todo!()` (a panic). The bus under a [`GuardedBus`] is a
 //!   [`RawI2c`], which has no `transaction`: only `write`, `read` and `write_read`, each a
@@ -146,7 +146,7 @@ pub trait RawI2c {
     fn clear(&mut self) -> Clear;
 }
 
-/// Runs a closure with interrupts masked (the firmware: PRIMASK).
+/// Runs a closure with interrupts masked (the firmware: BASEPRI, `app::imu::Masked`).
 pub trait Mask {
     /// `f` with every interrupt held off.
     fn masked<R>(&mut self, f: impl FnOnce() -> R) -> R;
