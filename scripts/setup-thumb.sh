@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Make `thumbv7m-none-eabi` (Cortex-M3, soft-float) builds work on this machine.
+# Make `thumbv7m-none-eabi` (Cortex-M3, soft-float) builds work on this machine: the target and
+# flip-link, the linker of every thumb build (.cargo/config.toml).
 #
 # Route 1 (a laptop, or any machine where rustup can fetch targets): the rustup target.
 # Route 2 (package registries only): Debian's rustc-web / cargo-web / rust-web-src (Rust 1.96,
@@ -28,6 +29,13 @@ THUMB_LINKER=$4
 EOT
   mv "$env_file.tmp" "$env_file"
 }
+
+# knurling's flip-link, the linker of every thumb build (.cargo/config.toml: the stack below the
+# static data, so that an overflow faults). From crates.io, built here; about a minute once.
+if ! command -v flip-link >/dev/null 2>&1; then
+  log "installing flip-link (cargo install flip-link --locked)"
+  cargo install -q flip-link --locked >/dev/null 2>&1 || { log "could not install flip-link"; exit 1; }
+fi
 
 # Fast path: a previous run chose a route and it is still valid.
 if [ -f "$env_file" ] && [ -z "${THUMB_ROUTE:-}" ]; then

@@ -38,8 +38,10 @@ fi
 if [ -z "${AHRS_LIBGCC:-}" ] && [ "${AHRS_SOFTFLOAT:-}" != builtins ] \
   && ! command -v "${ARM_NONE_EABI_GCC:-arm-none-eabi-gcc}" >/dev/null 2>&1; then
   log "installing gcc-arm-none-eabi (libgcc's soft-float for the Cortex-M3)"
-  apt_install gcc-arm-none-eabi \
-    || log "could not install gcc-arm-none-eabi: thumb builds fall back to compiler-builtins' soft-float (scripts/cycle-count --check will fail against the libgcc baseline)"
+  apt_install gcc-arm-none-eabi || {
+    log "could not install gcc-arm-none-eabi: thumb builds need libgcc's soft-float (tools/soft_float.rs; AHRS_SOFTFLOAT=builtins for a different image on purpose)"
+    exit 1
+  }
 fi
 
 # The marine tests read the device's sentences with real clients (ahrs-tool/tests/marine.rs):

@@ -26,13 +26,25 @@ pub const ADC_CH_GYRO_Z_REF: u8 = 15;
 /// 4–20 mA output must be scaled into 0–3.3 V externally (divider or shunt).
 pub const ADC_CH_DEPTH: u8 = 1;
 
+/// ADC1 channel of the internal reference VREFINT (RM0008 §11.12; enabled by ADC_CR2.TSVREFE).
+pub const ADC_CH_VREFINT: u8 = 17;
+/// VREFINT, V: 1.20 typ., 1.16–1.26 over −40…105 °C (STM32F103xC/D/E datasheet
+/// DS5792, "Embedded internal reference voltage"). VDDA = VREFINT · 4095 / counts.
+pub const VREFINT_V: f32 = 1.20;
+/// VDDA range in which the ADC works (DS5792: 2.4–3.6 V): a VREFINT reading that gives a VDDA
+/// outside it is not a VREFINT reading (a wrong rank) and is not used.
+pub const VDDA_MIN_V: f32 = 2.4;
+/// Upper end of [`VDDA_MIN_V`]'s range.
+pub const VDDA_MAX_V: f32 = 3.6;
+
 /// LPR430AL sensitivity on the 4× outputs, V per °/s (3.33 mV/dps).
 pub const LPR430AL_SENSITIVITY_V_PER_DPS: f32 = 3.33e-3;
 /// LY330ALH sensitivity, V per °/s (3.752 mV/dps).
 pub const LY330ALH_SENSITIVITY_V_PER_DPS: f32 = 3.752e-3;
 /// Full scale of both gyros, °/s.
 pub const GYRO_RANGE_DPS: f32 = 300.0;
-/// ADC reference (VDDA = VREF+ = 3.3 V on the board), V.
+/// ADC reference (VDDA = VREF+ = 3.3 V on the board), V: the nominal value, used when no
+/// VREFINT measurement is at hand (the firmware measures it in every scan, `adc::AdcScale`).
 pub const ADC_VREF: f32 = 3.3;
 /// ADC full-scale count (12 bit).
 pub const ADC_FULL_SCALE: u16 = 4095;

@@ -7,7 +7,7 @@
 //! | task | kind | prio | does |
 //! |---|---|---|---|
 //! | `adc_frame` | hardware, DMA1_CHANNEL1 | 3 | copies the finished ADC frame (1 kHz) into the shared `Averager` |
-//! | `usart2_rx` | hardware, USART2 (RXNE) | 3 | received bytes → `LineAssembler`; complete lines queued for `command` |
+//! | `usart2_rx` | hardware, USART2 (RXNE) | 4 | received bytes → `LineAssembler`; complete lines queued for `command` |
 //! | `filter` | async, every 1/filter_rate_hz (SysTick monotonic) | 2 | applies pending command actions (*commands*), reads the LSM303DLH, takes the ADC mean, runs `Pipeline::step` and `Device::on_cycle` (*commands*), starts the USART DMA (sentences + queued replies), feeds the watchdog |
 //! | `command` | async, spawned per received line | 1 | `Device::handle` (may write the settings flash), queues the reply and the action |
 //! | `blink` | async, 50 ms slots | 1 | LED pattern from the status the filter reported |
@@ -57,7 +57,9 @@ mod firmware {
     #[cfg(not(feature = "serial-commands"))]
     use inemo_ahrs::pipeline::PipelineSettings;
     use inemo_ahrs::supervision::{
+        clock_check::HseCheck,
         led::{self, Health},
+        selftest,
         watchdog::{FeedPolicy, Verdict},
     };
     use inemo_ahrs::{
@@ -89,8 +91,7 @@ mod firmware {
     use crate::app::settings_flash::SettingsFlash;
     use crate::app::{
         adc_scan::{self, AdcPins, AdcScan},
-        clocks::{self, ClockSource},
-        i2c_clock_hz,
+        clocks, i2c_clock_hz,
         imu::{self, Imu},
         uart_tx::{DmaTx, TX_BUF_LEN},
         watchdog::Watchdog,
@@ -138,6 +139,7 @@ mod firmware {
         tx: DmaTx,
         led: PB9<Output<PushPull>>,
         sysclk_hz: u32,
+        board: selftest::Inputs,
         #[cfg(feature = "serial-commands")]
         serial_rx: Rx<USART2>,
         #[cfg(feature = "serial-commands")]
@@ -152,6 +154,10 @@ mod firmware {
     fn init(cx: init::Context) -> (Shared, Local) {
         let mut core = cx.core;
         let dp = cx.device;
+        // The previous run's fault record (RAM kept across the reset), then the stack painted
+        // for the high-water mark.
+        let fault = crate::app::fault::take();
+        crate::app::stack::paint();
 
         // The cycle counter: filter timing, and BlockingI2c's timeouts depend on it.
         core.DCB.enable_trace();
@@ -159,9 +165,9 @@ mod firmware {
 
         let reset = clocks::take_reset_cause(&dp.RCC);
         // From here a hang resets the MCU (first feed at the end of the first healthy cycle).
-        let watchdog = Watchdog::start(dp.IWDG, &dp.DBGMCU);
+        let watchdog = crate::app::watchdog::start(dp.IWDG, &dp.DBGMCU);
         #[cfg_attr(not(feature = "serial-commands"), allow(unused_variables))]
-        let (mut rcc, source, flash) = clocks::freeze(dp.RCC, dp.FLASH);
+        let (mut rcc, source, flash, hse_check) = clocks::freeze(dp.RCC, dp.FLASH);
 
         // The settings: the newest valid flash record, else the defaults.
         #[cfg(feature = "serial-commands")]
@@ -200,7 +206,12 @@ mod firmware {
         let usart2_dr = dp.USART2.dr().as_ptr() as u32;
         let serial = Serial::new(
             dp.USART2,
-            (gpioa.pa2.into_alternate_push_pull(&mut gpioa.crl), gpioa.pa3),
+            // RX with the internal pull-up: an open RX line (no cable) idles high instead of
+            // floating into noise that the receiver would take for bytes (framing errors).
+            (
+                gpioa.pa2.into_alternate_push_pull(&mut gpioa.crl),
+                gpioa.pa3.into_pull_up_input(&mut gpioa.crl),
+            ),
             Config::default().baudrate(Bps(board::USART_BAUD)),
             &mut rcc,
         );
@@ -226,9 +237,18 @@ mod firmware {
             imu::ADDR_TIMEOUT_US,
             imu::DATA_TIMEOUT_US,
         );
-        let mut imu = Imu::new(i2c, settings.filter_rate_hz);
+        // Every transfer with the ADC's interrupt and below masked (ES0340 §2.13.2; `imu::Masked`); the bus cleared now (a slave
+        // may still be in a transfer the reset cut short) and after repeated failures.
+        let bus = imu::Bus::new(imu::HalBus::new(i2c, sysclk_hz), imu::Masked);
+        let bus_clear = bus.counters.last_clear;
+        let mut imu = Imu::new(bus, settings.filter_rate_hz);
         // A failure here is not fatal: the filter retries once per second meanwhile.
         let imu_result = imu.configure();
+        let mag_id_ok = match &imu_result {
+            Ok(None) => Some(true),
+            Ok(Some(_)) => Some(false),
+            Err(_) => None,
+        };
 
         // ADC1 scan of the six channels, TIM3-triggered, by DMA1 channel 1.
         let pins = AdcPins(
@@ -251,6 +271,11 @@ mod firmware {
             settings.filter_rate_hz,
             adc_scan::FRAME_HZ
         );
+        if let Some(found) = bus_clear {
+            if !matches!(found, inemo_ahrs::supervision::i2c_bus::Clear::Freed { .. }) {
+                defmt::error!("I2C bus clear at boot: {=str}", found.name());
+            }
+        }
         match imu_result {
             Ok(wrong_id) => {
                 if let Some(id) = wrong_id {
@@ -266,8 +291,52 @@ mod firmware {
         if !adc_scan.calibrated() {
             defmt::error!("ADC calibration did not complete");
         }
-        if source == ClockSource::Hsi {
-            defmt::error!("HSE did not start: running from HSI at 64 MHz");
+        let ranks = adc_scan.ranks();
+        // What the self-test grades (`SELFTEST`, and the report after the first cycle): the
+        // boot's findings; the filter task keeps the live readings current.
+        let bus = imu.bus().counters;
+        let board = selftest::Inputs {
+            hse: Some(hse_check),
+            vdda_v: ranks.vdda_v,
+            ranks_aligned: ranks.aligned(),
+            mag_id_ok,
+            xy_ref_v: Some(ranks.xy_ref_v),
+            z_ref_v: Some(ranks.z_ref_v),
+            depth_v: Some((ranks.depth_v, false)),
+            bus_clears: bus.clears,
+            last_clear: bus.last_clear,
+            #[cfg(feature = "serial-commands")]
+            settings_from_flash: matches!(loaded.source, Source::Flash { .. }),
+            fault: fault.map(|(kind, _)| kind),
+            ..selftest::Inputs::default()
+        };
+        if let Some((kind, regs)) = fault {
+            defmt::error!(
+                "the last run ended in {=str} ({=str}): PC {=u32:#010x}, LR {=u32:#010x}, CFSR {=u32:#010x}, HFSR {=u32:#010x}, line {=u32}",
+                kind.name(),
+                inemo_ahrs::supervision::fault_record::cause(&regs),
+                regs.pc,
+                regs.lr,
+                regs.cfsr,
+                regs.hfsr,
+                regs.line
+            );
+        }
+        if !ranks.aligned() {
+            defmt::error!(
+                "ADC ranks do not read like their channels: VREFINT gives VDDA {=?}, gyro references {=f32} V and {=f32} V",
+                ranks.vdda_v,
+                ranks.xy_ref_v,
+                ranks.z_ref_v
+            );
+        }
+        match hse_check {
+            HseCheck::Ok(hz) => defmt::println!("HSE measured at {=u32} Hz", hz),
+            HseCheck::Unmeasured => defmt::warn!("HSE running, its frequency not measured"),
+            HseCheck::WrongFrequency(hz) => {
+                defmt::error!("HSE runs at {=u32} Hz, not 8 MHz: running from HSI at 64 MHz", hz)
+            }
+            HseCheck::NotStarted => defmt::error!("HSE did not start: running from HSI at 64 MHz"),
         }
         #[cfg(feature = "serial-commands")]
         match loaded.source {
@@ -289,9 +358,14 @@ mod firmware {
         #[cfg(not(feature = "serial-commands"))]
         let settings_field = None;
         let version = env!("CARGO_PKG_VERSION");
+        // The boot sentence, and the fault record's report when there is one.
+        let fault_report = fault.map(|(kind, regs)| inemo_ahrs::command::fault_reply(kind, &regs));
         match nmea::pinab(source.tag(), reset, imu.configured(), version, settings_field) {
             Ok(s) => {
-                tx.send([s.as_bytes()]);
+                match &fault_report {
+                    Some(f) => tx.send([s.as_bytes(), f.as_bytes()]),
+                    None => tx.send([s.as_bytes()]),
+                };
             }
             Err(_) => defmt::error!("boot sentence does not fit"),
         }
@@ -325,6 +399,7 @@ mod firmware {
                 tx,
                 led,
                 sysclk_hz,
+                board,
                 #[cfg(feature = "serial-commands")]
                 serial_rx,
                 #[cfg(feature = "serial-commands")]
@@ -350,7 +425,7 @@ mod firmware {
 
     /// Received bytes: into the line assembler; a complete line is queued for `command`.
     #[cfg(feature = "serial-commands")]
-    #[task(binds = USART2, priority = 3, local = [serial_rx, assembler: LineAssembler = LineAssembler::new()], shared = [rx])]
+    #[task(binds = USART2, priority = 4, local = [serial_rx, assembler: LineAssembler = LineAssembler::new()], shared = [rx])]
     fn usart2_rx(mut cx: usart2_rx::Context) {
         for _ in 0..RX_READS_PER_IRQ {
             if !cx.local.serial_rx.is_rx_not_empty() && !rx_error() {
@@ -453,7 +528,7 @@ mod firmware {
     /// A cycle is healthy when it runs to its end and the estimator has not reported a health
     /// reset in each of the last `HEALTH_RESET_STORM` cycles (`supervision::watchdog`); only
     /// then is the watchdog fed.
-    #[task(priority = 2, local = [imu, pipeline, tx, sysclk_hz, watchdog], shared = [adc, health, rx, cmd])]
+    #[task(priority = 2, local = [imu, pipeline, tx, sysclk_hz, watchdog, board], shared = [adc, health, rx, cmd])]
     async fn filter(mut cx: filter::Context) {
         #[cfg(feature = "serial-commands")]
         let (mut period, mut nominal_dt, mut stats_every, mut budget) =
@@ -500,6 +575,15 @@ mod firmware {
             }
 
             let reading = cx.local.imu.read();
+            crate::app::update_board(cx.local.board, &reading, adc.as_ref(), cx.local.imu);
+            if cycle == 0 {
+                let report = selftest::evaluate(cx.local.board);
+                defmt::println!(
+                    "self-test: {=str}, grades {=u32:05x} (docs/bring-up.md)",
+                    report.overall().name(),
+                    report.code()
+                );
+            }
             if let Some(event) = &reading.event {
                 imu::log_event(event);
             }
@@ -539,8 +623,15 @@ mod firmware {
                     if raw { pipeline.conditioned_sample(&inputs) } else { ImuSample::default() };
                 let step = pipeline.step(&inputs);
                 let tx = &mut *cx.local.tx;
+                let board = *cx.local.board;
                 cx.shared.cmd.lock(|c| {
                     c.device.set_heading_ref(step.heading_ref);
+                    c.device.set_board(board);
+                    if cycle == 0 {
+                        // The boot's self-test report, as `SELFTEST` replies.
+                        c.replies
+                            .push(inemo_ahrs::command::selftest_reply("SELFTEST", &board).finish());
+                    }
                     let mut out = c.device.on_cycle(&inputs, &sample);
                     c.record(out.reply.take(), out.action.take());
                     if raw {
@@ -569,6 +660,14 @@ mod firmware {
             last_cycle_us = DWT::cycle_count().wrapping_sub(start) / cycles_per_us;
             max_cycle_us = max_cycle_us.max(last_cycle_us);
             cycle = cycle.wrapping_add(1);
+            if cycle == 1 || cycle % stats_every == 0 {
+                // The stack's high-water mark (a scan of the painted stack from the bottom of RAM:
+                // about 13,000 words, 0.6 ms at 72 MHz, every 10 s).
+                let stack_used = crate::app::stack::used();
+                defmt::info!("stack: {=u32} bytes used at most", stack_used);
+                #[cfg(feature = "serial-commands")]
+                cx.shared.cmd.lock(|c| c.device.set_stack_used(stack_used));
+            }
             if cycle % stats_every == 0 {
                 #[cfg(feature = "serial-commands")]
                 {
@@ -583,13 +682,14 @@ mod firmware {
                     );
                 }
                 defmt::info!(
-                    "cycle {=u32}: max {=u32} us, status {=u32:#x}, overruns {=u32}, ADC lost {=u32}, I2C errors {=u32}, tx dropped {=u32}",
+                    "cycle {=u32}: max {=u32} us, status {=u32:#x}, overruns {=u32}, ADC lost {=u32}, I2C errors {=u32}, bus clears {=u32}, tx dropped {=u32}",
                     cycle,
                     max_cycle_us,
                     step.status.0,
                     overruns,
                     lost_frames,
                     cx.local.imu.counters.i2c_errors,
+                    cx.local.imu.bus().counters.clears,
                     cx.local.tx.dropped
                 );
                 max_cycle_us = 0;

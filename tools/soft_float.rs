@@ -9,9 +9,12 @@
 // (`thumb/v7-m/nofp/libgcc.a`) is found, it is linked; `compiler_builtins`' intrinsics are weak,
 // so libgcc's strong `__aeabi_f*`/`__aeabi_d*` win with no duplicate symbol.
 //
-// - `AHRS_SOFTFLOAT=libgcc`: libgcc, an error when it cannot be found;
-//   `AHRS_SOFTFLOAT=builtins`: compiler-builtins; unset or `auto`: libgcc when found, else
-//   compiler-builtins with a build warning.
+// - Unset or `AHRS_SOFTFLOAT=libgcc`: libgcc, and the build fails when it cannot be found, so
+//   that the image (and its cycle counts) is the same on every machine (issue #16: it used to
+//   fall back silently). `AHRS_SOFTFLOAT=builtins`: compiler-builtins, on purpose (a different
+//   image: about twice the soft-float cycles); `auto`: libgcc when found, else compiler-builtins
+//   with a build warning (the old default, for a quick build on a machine without the
+//   cross-compiler).
 // - Where libgcc is looked for: `AHRS_LIBGCC` (path of a `libgcc.a`), else
 //   `arm-none-eabi-gcc -mcpu=cortex-m3 -mthumb -mfloat-abi=soft -print-libgcc-file-name`
 //   (`ARM_NONE_EABI_GCC` names another command). `scripts/setup.sh` installs Debian's
@@ -34,8 +37,8 @@ fn link_soft_float() -> &'static str {
     let mode = std::env::var("AHRS_SOFTFLOAT").unwrap_or_default();
     let required = match mode.as_str() {
         "builtins" => return use_soft_float("compiler-builtins"),
-        "libgcc" => true,
-        "" | "auto" => false,
+        "" | "libgcc" => true,
+        "auto" => false,
         other => panic!("AHRS_SOFTFLOAT={other}: expected `libgcc`, `builtins` or `auto`"),
     };
     match find_libgcc() {
@@ -46,7 +49,12 @@ fn link_soft_float() -> &'static str {
             println!("cargo:rustc-link-lib=static:-bundle=gcc");
             use_soft_float("libgcc")
         }
-        Err(why) if required => panic!("AHRS_SOFTFLOAT=libgcc: {why}"),
+        Err(why) if required => panic!(
+            "soft-float: {why}. The firmware links libgcc's Cortex-M3 soft-float so that every \
+             machine builds the same image: install it (Debian: apt install gcc-arm-none-eabi; \
+             scripts/setup.sh does) or point AHRS_LIBGCC at a thumb/v7-m/nofp/libgcc.a. \
+             AHRS_SOFTFLOAT=builtins builds a different, slower image on purpose."
+        ),
         Err(why) => {
             println!(
                 "cargo:warning=soft-float: {why}; using compiler-builtins' routines (about \

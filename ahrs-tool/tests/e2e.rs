@@ -147,7 +147,7 @@ fn calibrate_six_positions_from_stdin_and_save() {
     let text = common::calibrate(&emu.port);
     assert!(text.contains("Saved: $PINAR,OK,SAVE,A,1"), "{text}");
     let status = stdout(&emu.tool(&["send", "STATUS"]));
-    assert!(status.starts_with("$PINAR,OK,STATUS,A,1,") && status.contains(",3F,R*"), "{status}");
+    assert!(status.starts_with("$PINAR,OK,STATUS,A,1,") && status.contains(",3F,R,,*"), "{status}");
     let cal = stdout(&emu.tool(&["send", "GET", "accel_cal.x"]));
     assert!(cal.contains("OK,GET,accel_cal.x,"), "{cal}");
 }
@@ -166,7 +166,7 @@ fn calibrate_quits_on_q_without_changes() {
     let o = child.wait_with_output().unwrap();
     assert_eq!(o.status.code(), Some(2));
     let status = stdout(&emu.tool(&["send", "STATUS"]));
-    assert!(status.contains(",00,R*"), "{status}");
+    assert!(status.contains(",00,R,,*"), "{status}");
 }
 
 /// A child process killed on drop.

@@ -145,7 +145,7 @@ fn nothing_invalid_or_relative_reaches_signal_k_as_valid_and_yaw_makes_the_headi
     // The operator makes the heading true: 123.4° now.
     emu.send("YAW,123.4");
     let status = emu.send("STATUS");
-    assert!(status.contains(",T*"), "{status}");
+    assert!(status.contains(",T,,*"), "{status}");
     let true_ = parse(&clients, emu.capture(0.3), "true");
     let outs = outputs(&true_);
     let first = outs.first().expect("outputs");

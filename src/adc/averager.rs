@@ -17,6 +17,9 @@ pub struct AdcMean {
     pub gyro_z_ref: f32,
     /// Depth sensor, mean counts.
     pub depth: f32,
+    /// VREFINT, mean counts; 0 when not measured (a trace, a test): the conversions then use
+    /// the nominal VDDA (`AdcScale::for_mean`).
+    pub vrefint: f32,
     /// Number of frames averaged (≥ 1).
     pub samples: u32,
     /// Frames dropped because the averager was full ([`Averager::CAPACITY`]); 0 in normal
@@ -43,6 +46,7 @@ impl AdcMean {
             gyro_z: f32::from(frame.gyro_z),
             gyro_z_ref: f32::from(frame.gyro_z_ref),
             depth: f32::from(frame.depth),
+            vrefint: f32::from(frame.vrefint),
             samples: 1,
             dropped: 0,
             rails: frame.rails(),
@@ -117,13 +121,15 @@ impl Averager {
             // Both are below 2^24 (quotient ≤ 65535, remainder < count ≤ 65536): exact in f32.
             *m = quotient as f32 + remainder as f32 / count as f32;
         }
+        // Scan order (SCAN_CHANNELS), as `AdcFrame::to_scan` summed it.
         let out = AdcMean {
-            gyro_x: mean[0],
-            gyro_y: mean[1],
-            gyro_xy_ref: mean[2],
-            gyro_z: mean[3],
-            gyro_z_ref: mean[4],
-            depth: mean[5],
+            gyro_xy_ref: mean[0],
+            depth: mean[1],
+            gyro_z_ref: mean[2],
+            gyro_x: mean[3],
+            gyro_y: mean[4],
+            gyro_z: mean[5],
+            vrefint: mean[6],
             samples: count,
             dropped: self.dropped,
             rails: self.rails,
@@ -141,6 +147,19 @@ mod tests {
         AdcFrame::from_scan([v; SCAN_LEN])
     }
 
+    /// A frame by channel: gyro X, Y, XY reference, Z, Z reference, depth; VREFINT 1489.
+    fn named(c: [u16; 6]) -> AdcFrame {
+        AdcFrame {
+            gyro_x: c[0],
+            gyro_y: c[1],
+            gyro_xy_ref: c[2],
+            gyro_z: c[3],
+            gyro_z_ref: c[4],
+            depth: c[5],
+            vrefint: 1489,
+        }
+    }
+
     #[test]
     fn empty_gives_none() {
         let mut a = Averager::new();
@@ -151,15 +170,15 @@ mod tests {
     #[test]
     fn small_mean_and_reset() {
         let mut a = Averager::new();
-        a.push(&AdcFrame::from_scan([100, 200, 300, 400, 500, 600]));
-        a.push(&AdcFrame::from_scan([101, 200, 301, 400, 500, 601]));
-        a.push(&AdcFrame::from_scan([102, 200, 302, 400, 500, 605]));
+        a.push(&named([100, 200, 300, 400, 500, 600]));
+        a.push(&named([101, 200, 301, 400, 500, 601]));
+        a.push(&named([102, 200, 302, 400, 500, 605]));
         assert_eq!(a.len(), 3);
         let m = a.take().unwrap();
         assert_eq!(m.samples, 3);
         assert_eq!((m.gyro_x, m.gyro_y, m.gyro_xy_ref), (101.0, 200.0, 301.0));
         assert_eq!((m.gyro_z, m.gyro_z_ref), (400.0, 500.0));
-        assert_eq!(m.depth, 602.0);
+        assert_eq!((m.depth, m.vrefint), (602.0, 1489.0));
         assert!(!m.touched_rail());
         assert!(a.is_empty() && a.take().is_none());
     }
@@ -186,7 +205,7 @@ mod tests {
         assert_eq!(m.gyro_x, 65535.0);
         assert_eq!(m.depth, 65535.0);
         assert_eq!(m.dropped, 0);
-        assert_eq!(m.rails, Rails(0b11_1111));
+        assert_eq!(m.rails, Rails(0b111_1111));
     }
 
     #[test]
@@ -196,7 +215,7 @@ mod tests {
         let mut a = Averager::new();
         for i in 0..65_536u32 {
             let ramp = (i % 4096) as u16;
-            a.push(&AdcFrame::from_scan([4000 + (i % 2) as u16, ramp, 2000, 2000, 2000, 17]));
+            a.push(&named([4000 + (i % 2) as u16, ramp, 2000, 2000, 2000, 17]));
         }
         let m = a.take().unwrap();
         assert_eq!(m.gyro_x, 4000.5);
@@ -231,7 +250,7 @@ mod tests {
         for _ in 0..99 {
             a.push(&frame(2000));
         }
-        a.push(&AdcFrame::from_scan([2000, 2000, 2000, 2000, 2000, 4095]));
+        a.push(&named([2000, 2000, 2000, 2000, 2000, 4095]));
         let m = a.take().unwrap();
         assert!(m.touched_rail());
         assert_eq!(m.rails, Rails::DEPTH);

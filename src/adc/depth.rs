@@ -78,7 +78,8 @@ impl DepthCalibration {
 
     /// The depth reading of an averaged scan, with the ADC's transfer function `scale`.
     pub fn reading(&self, mean: &AdcMean, scale: &AdcScale) -> DepthReading {
-        let volts = scale.counts_to_volts(mean.depth);
+        // Volts with the VDDA the scan's VREFINT measured (`AdcScale::for_mean`).
+        let volts = scale.for_mean(mean).counts_to_volts(mean.depth);
         let pressure_pa = self.pressure_pa(volts);
         DepthReading {
             volts,
@@ -135,7 +136,7 @@ mod tests {
         let scale = AdcScale::default();
         // A gauge sensor at the surface: 0.01 V ≈ 12 121 Pa, about −8.9 m before zeroing.
         let mut a = Averager::new();
-        a.push(&AdcFrame::from_scan([2000, 2000, 2000, 2000, 2000, 12]));
+        a.push(&AdcFrame::from_channels([2000, 2000, 2000, 2000, 2000, 12]));
         let surface = d.reading(&a.take().unwrap(), &scale);
         assert!(!surface.at_rail);
         assert!((surface.volts - 12.0 * 3.3 / 4095.0).abs() < 1e-7);
@@ -152,8 +153,8 @@ mod tests {
     fn rail_is_flagged_and_refused_for_zeroing() {
         let mut d = DepthCalibration::default();
         let mut a = Averager::new();
-        a.push(&AdcFrame::from_scan([2000, 2000, 2000, 2000, 2000, 3]));
-        a.push(&AdcFrame::from_scan([2000, 2000, 2000, 2000, 2000, 300]));
+        a.push(&AdcFrame::from_channels([2000, 2000, 2000, 2000, 2000, 3]));
+        a.push(&AdcFrame::from_channels([2000, 2000, 2000, 2000, 2000, 300]));
         let r = d.reading(&a.take().unwrap(), &AdcScale::default());
         assert!(r.at_rail);
         assert!(!d.zero_at_surface(&r));

@@ -65,17 +65,20 @@ impl GyroConversion {
 
     /// Rate of one axis, °/s, from the output and reference mean counts.
     #[inline]
-    fn rate_dps(&self, axis: usize, output: f32, reference: f32) -> f32 {
+    fn rate_dps(scale: &AdcScale, sens: f32, output: f32, reference: f32) -> f32 {
         // The difference is taken in counts first: exact for any realistic mean.
-        self.counts_to_volts(output - reference) / self.sensitivity_v_per_dps[axis]
+        scale.counts_to_volts(output - reference) / sens
     }
 
     /// Angular rates of an averaged scan, rad/s in the sensors' axes, with saturation flags.
     pub fn rates(&self, mean: &AdcMean) -> GyroReading {
+        // Volts with the VDDA the scan's VREFINT measured (`AdcScale::for_mean`).
+        let scale = self.scale.for_mean(mean);
+        let sens = self.sensitivity_v_per_dps;
         let dps = [
-            self.rate_dps(0, mean.gyro_x, mean.gyro_xy_ref),
-            self.rate_dps(1, mean.gyro_y, mean.gyro_xy_ref),
-            self.rate_dps(2, mean.gyro_z, mean.gyro_z_ref),
+            Self::rate_dps(&scale, sens[0], mean.gyro_x, mean.gyro_xy_ref),
+            Self::rate_dps(&scale, sens[1], mean.gyro_y, mean.gyro_xy_ref),
+            Self::rate_dps(&scale, sens[2], mean.gyro_z, mean.gyro_z_ref),
         ];
         let channels = [
             Rails::GYRO_X | Rails::GYRO_XY_REF,
@@ -139,6 +142,27 @@ mod tests {
     }
 
     #[test]
+    fn rates_are_corrected_for_the_measured_vdda() {
+        // VDDA at 3.0 V (a regulator 10 % low): X turning at 100 °/s is 0.333 V above its
+        // 1.23 V reference whatever VDDA is; in counts (of 3.0 V) that is 454.6 counts,
+        // which the nominal 3.3 V would read as 110 °/s. VREFINT (1.20 V) reads 1638 counts.
+        let c = |v: f32| v / 3.0 * 4095.0;
+        let mean = AdcMean {
+            gyro_x: c(1.23 + 0.333),
+            gyro_y: c(1.23),
+            gyro_xy_ref: c(1.23),
+            gyro_z: c(1.5 - 0.3752),
+            gyro_z_ref: c(1.5),
+            vrefint: c(1.20),
+            samples: 1,
+            ..AdcMean::default()
+        };
+        let r = GyroConversion::default().rates(&mean);
+        assert!(close(r.rate[0], 100.0 * DEG, 1e-4), "{}", r.rate[0] / DEG);
+        assert!(close(r.rate[2], -100.0 * DEG, 1e-4), "{}", r.rate[2] / DEG);
+    }
+
+    #[test]
     fn z_uses_3_752_mv_per_dps_and_negative_rates() {
         let g = GyroConversion::default();
         // z: −0.3752 V → −100 °/s; y: −0.0333 V → −10 °/s.
@@ -153,7 +177,7 @@ mod tests {
         // Out − ref = +100 counts = 100 · 3.3 / 4095 V = 80.586 mV:
         // x: 80.586 / 3.33 = 24.2002 °/s; z: 80.586 / 3.752 = 21.4782 °/s.
         let mut a = Averager::new();
-        a.push(&AdcFrame::from_scan([1626, 1526, 1526, 1962, 1862, 500]));
+        a.push(&AdcFrame::from_channels([1626, 1526, 1526, 1962, 1862, 500]));
         let r = GyroConversion::default().rates(&a.take().unwrap());
         assert!(close(r.rate[0], 24.200_02 * DEG, 1e-6));
         assert!(close(r.rate[1], 0.0, 0.0));
@@ -183,17 +207,17 @@ mod tests {
         let g = GyroConversion::default();
         let mut a = Averager::new();
         for _ in 0..9 {
-            a.push(&AdcFrame::from_scan([1526, 1526, 1526, 1862, 1862, 2000]));
+            a.push(&AdcFrame::from_channels([1526, 1526, 1526, 1862, 1862, 2000]));
         }
         // One frame with the XY reference at the low rail: x and y are saturated.
-        a.push(&AdcFrame::from_scan([1526, 1526, 5, 1862, 1862, 2000]));
+        a.push(&AdcFrame::from_channels([1526, 1526, 5, 1862, 1862, 2000]));
         let r = g.rates(&a.take().unwrap());
         assert_eq!(r.axis_saturated, [true, true, false]);
         assert!(r.saturated);
         // The depth channel at a rail does not saturate the gyros.
-        a.push(&AdcFrame::from_scan([1526, 1526, 1526, 1862, 4095, 4095]));
+        a.push(&AdcFrame::from_channels([1526, 1526, 1526, 1862, 4095, 4095]));
         assert_eq!(g.rates(&a.take().unwrap()).axis_saturated, [false, false, true]);
-        a.push(&AdcFrame::from_scan([1526, 1526, 1526, 1862, 1862, 4095]));
+        a.push(&AdcFrame::from_channels([1526, 1526, 1526, 1862, 1862, 4095]));
         assert!(!g.rates(&a.take().unwrap()).saturated);
     }
 }

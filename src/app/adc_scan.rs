@@ -1,4 +1,5 @@
-//! ADC1 scan of the six analog channels, triggered by TIM3 and moved by DMA1 channel 1.
+//! ADC1 scan of the six analog channels and VREFINT, triggered by TIM3 and moved by DMA1
+//! channel 1.
 //!
 //! TIM3 overflows at [`FRAME_HZ`] and its update event is the trigger output (TRGO) that
 //! starts one regular-group scan of [`SCAN_CHANNELS`] (ADC1 EXTSEL = TIM3_TRGO). Every
@@ -7,8 +8,9 @@
 //! interrupt frame 1. The interrupt handler ([`AdcScan::service`]) copies the finished frame
 //! out while the DMA fills the other one.
 //!
-//! Timing (sample time 239.5 cycles + 12.5 conversion = 252 ADC cycles per channel): one scan
-//! takes 126 µs at the 12 MHz ADC clock (142 µs at 10.67 MHz from HSI), well inside the 1 ms
+//! Timing (sample time 239.5 cycles + 12.5 conversion = 252 ADC cycles per channel; VREFINT
+//! needs ≥ 17.1 µs of sampling, DS5792, and gets 20 µs): one scan of seven channels
+//! takes 147 µs at the 12 MHz ADC clock (165 µs at 10.67 MHz from HSI), well inside the 1 ms
 //! frame period. The frame rate is exactly [`FRAME_HZ`] = 1 kHz: 20 frames per 50 Hz filter
 //! cycle, 5 per 200 Hz cycle.
 //!
@@ -19,7 +21,7 @@
 
 use core::sync::atomic::{compiler_fence, Ordering};
 
-use inemo_ahrs::adc::{AdcFrame, SCAN_CHANNELS, SCAN_LEN};
+use inemo_ahrs::adc::{check_ranks, AdcFrame, RankCheck, SCAN_CHANNELS, SCAN_LEN};
 use stm32f1xx_hal::{
     adc::{Adc, AdcDma, ChannelTimeSequence, SampleTime, Scan, SetChannels},
     dma::{dma1, Event, TransferPayload},
@@ -38,7 +40,8 @@ const SAMPLE_TIME: SampleTime = SampleTime::T_239;
 /// DMA1 channel 1 is index 0 in the DMA's ISR/IFCR flag arrays.
 const DMA_INDEX: u8 = 0;
 
-/// The analog pins, in scan order: PC0, PC1, PC2, PC4, PC5 (gyros), PA1 (depth).
+/// The analog pins: PC0, PC1, PC2, PC4, PC5 (gyros), PA1 (depth); the scan order is
+/// [`SCAN_CHANNELS`] (with VREFINT, internal).
 pub struct AdcPins(
     pub PC0<Analog>,
     pub PC1<Analog>,
@@ -78,6 +81,7 @@ pub struct AdcScan {
     dma: AdcDma<pac::ADC1, AdcPins, Scan, dma1::C1>,
     buf: &'static mut [[u16; SCAN_LEN]; 2],
     calibrated: bool,
+    ranks: RankCheck,
     _trigger: CounterHz<pac::TIM3>,
 }
 
@@ -97,20 +101,29 @@ pub fn start(
     // Powers up and calibrates the ADC; then the trigger, the sequence and the DMA request.
     let mut adc = Adc::new(adc1, rcc);
     adc.set_external_trigger(pac::adc1::cr2::EXTSEL::Tim3trgo);
-    let mut dma = adc.with_scan_dma(pins, channel);
-    // `with_scan_dma` powered the ADC down and up again (ADON 0 → 1), after the HAL's
-    // calibration in `Adc::new`; RM0008 recommends calibrating after each power-up.
-    // Wait t_STAB (1 µs) and two ADC clocks, then calibrate again.
-    cortex_m::asm::delay(sysclk / 100_000);
-    // SAFETY: ADC1's registers, owned by `dma` (the HAL keeps the `Adc` private in its
-    // payload); accessed here once, in `init` with interrupts masked, before the DMA channel
-    // is enabled and the trigger timer runs. The same writes as the HAL's own calibration.
+    // SAFETY: ADC1's registers, owned by `adc` and then by `dma` (the HAL keeps the `Adc`
+    // private in its payload); accessed here only, in `init` with interrupts masked, before
+    // the DMA channel is enabled and the trigger timer runs.
     let regs = unsafe { &*pac::ADC1::ptr() };
+    // VREFINT (channel 17) on: it measures VDDA in every scan (`AdcScale::for_mean`). Its
+    // start-up (DS5792: 10 µs) passes long before the first scan.
+    regs.cr2().modify(|_, w| w.tsvrefe().set_bit());
+    let mut dma = adc.with_scan_dma(pins, channel);
+    // `with_scan_dma` powered the ADC down and up again (ADON 0 → 1) with CR2.DMA set, after
+    // the HAL's calibration in `Adc::new`; RM0008 recommends calibrating after each power-up.
+    // The calibration leaves its code in ADC_DR (RM0008 §11.4): with DMA requests on, the DMA
+    // could take it for the first conversion and shift every frame by one rank. So: DMA
+    // requests off, wait t_STAB (1 µs) and two ADC clocks, calibrate, read ADC_DR out, and
+    // only then DMA requests on. (A CR2 write that changes a bit besides ADON starts no
+    // conversion, RM0008 §11.12.3.)
+    regs.cr2().modify(|_, w| w.dma().clear_bit());
+    cortex_m::asm::delay(sysclk / 100_000);
     let calibrated = calibrate(regs);
     // Anything converted meanwhile (a conversion takes < 25 µs, a scan < 150 µs) is drained
-    // with its DMA request, so the channel starts aligned with the scan's first rank.
+    // too, so the channel starts aligned with the scan's first rank.
     cortex_m::asm::delay(sysclk / 5_000);
     let _ = regs.dr().read();
+    regs.cr2().modify(|_, w| w.dma().set_bit());
 
     let ch = &mut dma.channel;
     ch.set_peripheral_address(dr, false);
@@ -131,8 +144,12 @@ pub fn start(
     // Enables the channel, then rewrites ADON, which starts one software scan: it lands,
     // aligned, in frame 0.
     dma.start();
-    // Let that scan finish (< 150 µs) before the timer can trigger another one.
+    // Let that scan finish (< 170 µs) before the timer can trigger another one.
     cortex_m::asm::delay(sysclk / 2_000);
+    // The boot check on that first frame: do the ranks read like what they should be?
+    // SAFETY: frame 0 of the 'static buffer, complete (the DMA is idle until the timer runs).
+    let first = unsafe { core::ptr::read_volatile(&buf[0]) };
+    let ranks = check_ranks(&AdcFrame::from_scan(first));
 
     let mut timer = Timer::new(tim3, rcc);
     timer.set_master_mode(pac::tim2::cr2::MMS::Update);
@@ -144,7 +161,7 @@ pub fn start(
         panic!("TIM3 cannot run at the ADC frame rate");
     }
 
-    AdcScan { dma, buf, calibrated, _trigger: trigger }
+    AdcScan { dma, buf, calibrated, ranks, _trigger: trigger }
 }
 
 /// Resets and runs the ADC calibration, each step bounded (it takes about 90 ADC clocks).
@@ -162,6 +179,11 @@ impl AdcScan {
     /// Whether the calibration after the last power-up completed.
     pub fn calibrated(&self) -> bool {
         self.calibrated
+    }
+
+    /// The boot check of the first frame's ranks (VREFINT, the gyro references).
+    pub fn ranks(&self) -> RankCheck {
+        self.ranks
     }
 
     /// Handles DMA1 channel 1's interrupt: clears the flags it saw and copies out the frame

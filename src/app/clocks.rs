@@ -2,10 +2,13 @@
 //!
 //! The HAL's `Rcc::freeze` waits for HSERDY without a bound ("will result in a hang if an
 //! external oscillator is not connected or it fails to start"), so the crystal is started here
-//! first with a bounded wait; only if it runs is the HSE configuration frozen, otherwise the
-//! PLL runs from HSI/2.
+//! first with a bounded wait, then its frequency is measured against the HSI through the LSI
+//! ([`measure_hse`]; the decision is the library's
+//! [`clock_check`](inemo_ahrs::supervision::clock_check), host-tested); only if it runs at
+//! 8 MHz is the HSE configuration frozen, otherwise the PLL runs from HSI/2.
 
 use inemo_ahrs::board;
+use inemo_ahrs::supervision::clock_check::{self, HseCheck};
 pub use inemo_ahrs::supervision::reset_cause::ResetCause;
 use stm32f1xx_hal::{
     flash::{self, FlashExt},
@@ -68,12 +71,95 @@ fn start_hse(rcc: &pac::RCC) -> bool {
     false
 }
 
+/// LSI captures (each over 8 LSI periods) summed per measurement.
+const CAPTURES: u32 = 4;
+/// Polls of a capture flag at most: 8 LSI periods at the slowest LSI (30 kHz) are 267 µs,
+/// 2,133 core cycles at 8 MHz; a poll takes a few cycles, so 20,000 polls are ample.
+const CAPTURE_POLLS: u32 = 20_000;
+/// Polls of SWS after a switch of SYSCLK (it takes a few cycles of both clocks).
+const SWITCH_POLLS: u32 = 1_000;
+
+/// TIM5 ticks (at SYSCLK: the prescalers are at their reset value /1) over `CAPTURES` × 8 LSI
+/// periods, captured on TIM5 channel 4 (the LSI when AFIO_MAPR.TIM5CH4_IREMAP is set).
+fn lsi_ticks(tim: &pac::tim2::RegisterBlock) -> Option<u32> {
+    let capture = || -> Option<u16> {
+        for _ in 0..CAPTURE_POLLS {
+            if tim.sr().read().bits() & (1 << 4) != 0 {
+                // CC4IF; reading CCR4 clears it.
+                return Some(tim.ccr4().read().bits() as u16);
+            }
+        }
+        None
+    };
+    let mut first = capture()?;
+    let mut sum = 0u32;
+    for _ in 0..CAPTURES {
+        let next = capture()?;
+        sum += u32::from(next.wrapping_sub(first));
+        first = next;
+    }
+    Some(sum)
+}
+
+/// Switches SYSCLK (SW: 0 HSI, 1 HSE) and waits for SWS to follow; false if it did not.
+fn switch_sysclk(rcc: &pac::RCC, hse: bool) -> bool {
+    rcc.cfgr().modify(|_, w| if hse { w.sw().hse() } else { w.sw().hsi() });
+    (0..SWITCH_POLLS).any(|_| rcc.cfgr().read().sws().bits() == u8::from(hse))
+}
+
+/// Measures the running crystal against the HSI (module documentation of
+/// [`clock_check`](inemo_ahrs::supervision::clock_check)): TIM5 counts LSI periods with
+/// SYSCLK on the HSI, then on the HSE directly (no PLL: safe for any crystal the oscillator
+/// runs), then SYSCLK goes back to the HSI. Every wait is bounded; TIM5 and the remap are
+/// left as they were found (reset).
+fn measure_hse(rcc: &pac::RCC, started: bool) -> HseCheck {
+    if !started {
+        return clock_check::judge(false, None, None);
+    }
+    // SAFETY: TIM5, AFIO_MAPR and FLASH_ACR are not used by anything yet (this runs first in
+    // `init`, interrupts masked); TIM5 is reset afterwards, the remap bit cleared.
+    let (tim, afio, flash) =
+        unsafe { (&*pac::TIM5::ptr(), &*pac::AFIO::ptr(), &*pac::FLASH::ptr()) };
+    // Two flash wait states: SYSCLK on a crystal above 24 MHz would need them (RM0008 §3.3.3).
+    flash.acr().modify(|_, w| unsafe { w.latency().bits(2) });
+    rcc.apb1enr().modify(|_, w| w.tim5en().set_bit());
+    rcc.apb2enr().modify(|_, w| w.afioen().set_bit());
+    // The LSI is on (the watchdog started it); wait for it (bounded).
+    rcc.csr().modify(|_, w| w.lsion().set_bit());
+    let _ = (0..CAPTURE_POLLS).any(|_| rcc.csr().read().lsirdy().bit_is_set());
+    afio.mapr().modify(|_, w| w.tim5ch4_iremap().set_bit());
+    // SAFETY: raw values of TIM5's registers (RM0008 §15.4): PSC 0, ARR 0xFFFF; CCMR2 CC4S = 01
+    // (IC4 on TI4), IC4PSC = 11 (a capture every 8 edges); CCER CC4E; CR1 CEN.
+    unsafe {
+        tim.psc().write(|w| w.bits(0));
+        tim.arr().write(|w| w.bits(0xFFFF));
+        tim.egr().write(|w| w.bits(1));
+        tim.ccmr2_input().write(|w| w.bits(0b11 << 10 | 0b01 << 8));
+        tim.ccer().write(|w| w.bits(1 << 12));
+        tim.cr1().write(|w| w.bits(1));
+    }
+    let on_hsi = lsi_ticks(tim);
+    let on_hse = if switch_sysclk(rcc, true) { lsi_ticks(tim) } else { None };
+    let _ = switch_sysclk(rcc, false);
+    rcc.apb1rstr().modify(|_, w| w.tim5rst().set_bit());
+    rcc.apb1rstr().modify(|_, w| w.tim5rst().clear_bit());
+    rcc.apb1enr().modify(|_, w| w.tim5en().clear_bit());
+    afio.mapr().modify(|_, w| w.tim5ch4_iremap().clear_bit());
+    clock_check::judge(true, on_hsi, on_hse)
+}
+
 /// Configures the clock tree: 72 MHz from the crystal, or 64 MHz from HSI if it does not
-/// start. Flash wait states are set by the HAL. Returns the flash controller too (for the
-/// settings pages).
-pub fn freeze(rcc: pac::RCC, flash: pac::FLASH) -> (Rcc, ClockSource, flash::Parts) {
+/// start or is not 8 MHz. Flash wait states are set by the HAL. Returns the flash controller
+/// too (for the settings pages) and what the crystal check found.
+pub fn freeze(rcc: pac::RCC, flash: pac::FLASH) -> (Rcc, ClockSource, flash::Parts, HseCheck) {
+    let started = start_hse(&rcc);
+    let hse = measure_hse(&rcc, started);
+    if started && !hse.use_hse() {
+        // A crystal at the wrong frequency: off, so that nothing runs from it.
+        rcc.cr().modify(|_, w| w.hseon().clear_bit());
+    }
     let mut flash = flash.constrain();
-    let source = if start_hse(&rcc) { ClockSource::Hse } else { ClockSource::Hsi };
+    let source = if hse.use_hse() { ClockSource::Hse } else { ClockSource::Hsi };
     let config = match source {
         ClockSource::Hse => Config::hse(Hertz::from_raw(board::HSE_HZ))
             .sysclk(Hertz::from_raw(board::SYSCLK_HZ))
@@ -85,5 +171,5 @@ pub fn freeze(rcc: pac::RCC, flash: pac::FLASH) -> (Rcc, ClockSource, flash::Par
     .adcclk(Hertz::from_raw(ADCCLK_HZ));
     // The HSE branch re-enables HSEON and waits for HSERDY, which is already set.
     let rcc = rcc.freeze(config, &mut flash.acr);
-    (rcc, source, flash)
+    (rcc, source, flash, hse)
 }

@@ -8,6 +8,7 @@ pub mod adc_scan;
 pub mod clocks;
 #[cfg(feature = "serial-commands")]
 pub mod commands;
+pub mod fault;
 pub mod imu;
 mod panic;
 // Compiled in both variants: RTIC's generated code names the types of the local resources
@@ -15,10 +16,12 @@ mod panic;
 // it).
 #[cfg_attr(not(feature = "serial-commands"), allow(dead_code))]
 pub mod settings_flash;
+pub mod stack;
 pub mod uart_tx;
 pub mod watchdog;
 
-use inemo_ahrs::adc::Averager;
+use inemo_ahrs::adc::{vdda_from_vrefint, AdcMean, AdcScale, Averager, Rails};
+use inemo_ahrs::supervision::{imu::Reading, selftest};
 
 /// The I²C clock for fast mode with a 2:1 duty cycle at APB1 `pclk1_hz`: the highest at or
 /// below `board::I2C_FREQUENCY_HZ` that the HAL's integer divider reproduces exactly (the
@@ -58,4 +61,31 @@ impl AdcShared {
     pub fn take(&mut self) -> AdcShared {
         core::mem::take(self)
     }
+}
+
+/// Keeps the self-test's live readings current (every filter cycle): the last samples of the
+/// sensors, the ADC channels of this cycle's mean, the I²C counters.
+pub fn update_board<E>(
+    b: &mut selftest::Inputs,
+    reading: &Reading<E>,
+    adc: Option<&AdcMean>,
+    imu: &imu::Imu,
+) {
+    b.accel_g = reading.accel_g;
+    if reading.mag_ut.is_some() {
+        b.mag_ut = reading.mag_ut;
+    }
+    b.mag_id_ok = if imu.configured() { b.mag_id_ok.or(Some(true)) } else { None };
+    if let Some(m) = adc {
+        let full = AdcScale::default().full_scale_counts;
+        let scale = AdcScale::default().for_mean(m);
+        b.vdda_v = vdda_from_vrefint(m.vrefint, full);
+        b.xy_ref_v = Some(scale.counts_to_volts(m.gyro_xy_ref));
+        b.z_ref_v = Some(scale.counts_to_volts(m.gyro_z_ref));
+        b.depth_v = Some((scale.counts_to_volts(m.depth), m.rails.intersects(Rails::DEPTH)));
+    }
+    b.i2c_errors = imu.counters.i2c_errors;
+    let bus = imu.bus().counters;
+    b.bus_clears = bus.clears;
+    b.last_clear = bus.last_clear;
 }

@@ -12,6 +12,7 @@ use crate::persist::{self, Flash, Loaded, SaveError, Source};
 use crate::pipeline::{HeadingRef, Inputs, PipelineSettings};
 use crate::registry::ext::Ext;
 use crate::registry::{self, number, Kind, Setting, Value, ValueError, SETTINGS};
+use crate::supervision::selftest::Inputs as SelfTestInputs;
 
 /// Firmware version reported by `VER`.
 pub const VERSION: &str = env!("CARGO_PKG_VERSION");
@@ -120,10 +121,11 @@ enum Verb {
     Reset,
     Ver,
     Status,
+    Selftest,
 }
 
 /// Every verb with its name, for lookup.
-const VERBS: [(&str, Verb); 17] = [
+const VERBS: [(&str, Verb); 18] = [
     ("YAW", Verb::Yaw),
     ("YAW0", Verb::Yaw0),
     ("ZERO", Verb::Zero),
@@ -141,6 +143,7 @@ const VERBS: [(&str, Verb); 17] = [
     ("RESET", Verb::Reset),
     ("VER", Verb::Ver),
     ("STATUS", Verb::Status),
+    ("SELFTEST", Verb::Selftest),
 ];
 
 /// Names of every verb (for documentation checks).
@@ -187,6 +190,10 @@ pub struct Device {
     /// The accelerometer positions collected since boot or `ACAL,CLEAR`: bit i =
     /// `Position::ALL[i]` (the means went out in the `DONE` replies; the host fits X).
     acal_seen: u8,
+    /// What the board reads, for `SELFTEST` and `STATUS` ([`Device::set_board`]).
+    board: SelfTestInputs,
+    /// The stack's high-water mark, bytes ([`Device::set_stack_used`]).
+    stack_used: Option<u32>,
     depth: Option<DepthReading>,
     depth_age_s: f32,
     clock_us: u64,
@@ -210,6 +217,8 @@ impl Device {
             gbias: None,
             acal: None,
             acal_seen: 0,
+            board: SelfTestInputs::default(),
+            stack_used: None,
             depth: None,
             depth_age_s: f32::INFINITY,
             clock_us: 0,
@@ -255,6 +264,17 @@ impl Device {
         set(self.load_skipped > 0, STATUS_SKIPPED);
         set(self.load_missing > 0, STATUS_MISSING);
         f
+    }
+
+    /// What the board reads now (the application, every filter cycle): `SELFTEST` grades it,
+    /// `STATUS` reports its fault record.
+    pub fn set_board(&mut self, inputs: SelfTestInputs) {
+        self.board = inputs;
+    }
+
+    /// The stack's high-water mark, bytes (the application measures it: painted stack).
+    pub fn set_stack_used(&mut self, bytes: u32) {
+        self.stack_used = Some(bytes);
     }
 
     /// The reply to a [`LineEvent`]: [`Device::execute`] for a line, [`Device::too_long`]
@@ -523,7 +543,17 @@ impl Device {
                 out.hex(u32::from(self.status_flags()), 4);
                 out.hex(u32::from(self.acal_seen), 2);
                 out.field(self.heading_ref.letter());
+                // The board: the fault record found at boot, the stack's high-water mark.
+                out.field(self.board.fault.map_or("", |k| k.name()));
+                match self.stack_used {
+                    Some(bytes) => out.uint(u64::from(bytes)),
+                    None => out.field(""),
+                }
                 Ok((out, None))
+            }
+            Verb::Selftest => {
+                nargs(0)?;
+                Ok((super::board::selftest_reply(name, &self.board), None))
             }
         }
     }

@@ -9,12 +9,14 @@
 //! 3. every filter cycle, before `Pipeline::step`, `Pipeline::conditioned_sample(&inputs)`,
 //!    then [`Device::on_cycle`]; send its reply and raw sentences, act on its action.
 
+mod board;
 mod calib;
 mod device;
 mod line;
 mod raw;
 mod reply;
 
+pub use board::{fault_reply, selftest_reply};
 pub use calib::{
     accel_sigma, gyro_sigma, position_by_name, position_name, AccelPositionCal, CalEnd,
     GyroBiasCal, Stats3, POSITION_NAMES,

@@ -97,7 +97,7 @@ fn version_status_and_list() {
     assert_eq!(r, format!("PINAR,OK,VER,inemo-ahrs,{},1,{}", VERSION, SETTINGS.len()));
     assert!(a.is_none());
     // Both pages invalid at boot: defaults, flagged.
-    assert_eq!(run(&mut d, &mut f, "PINAC,STATUS").0, "PINAR,OK,STATUS,DEFAULTS,,POR,0001,00,R");
+    assert_eq!(run(&mut d, &mut f, "PINAC,STATUS").0, "PINAR,OK,STATUS,DEFAULTS,,POR,0001,00,R,,");
     assert_eq!(
         run(&mut d, &mut f, "PINAC,LIST,0").0,
         "PINAR,OK,LIST,0,74,noise.gyro_var,f32x3,(deg/s)2"
@@ -112,6 +112,25 @@ fn version_status_and_list() {
     // A reset cause that cannot be sent is shown as `?`.
     let mut d = Device::new(&persist::load(&SimFlash::new()), "a,b");
     assert!(run(&mut d, &mut f, "PINAC,STATUS").0.contains(",?,"));
+}
+
+#[test]
+fn status_and_selftest_report_the_board() {
+    use crate::supervision::{fault_record::FaultKind, selftest};
+    let mut d = Device::new(&persist::load(&SimFlash::new()), "IWDG");
+    let mut f = SimFlash::new();
+    // Nothing measured yet (the emulator): every measured field empty, the grade FAIL.
+    let (r, a) = run(&mut d, &mut f, "PINAC,SELFTEST");
+    assert!(r.starts_with("PINAR,OK,SELFTEST,FAIL,"), "{r}");
+    assert!(a.is_none());
+    assert_eq!(refused(&mut d, &mut f, &cmd("PINAC,SELFTEST,1")), "PINAR,ERR,SELFTEST,args");
+    // The board reported a fault record at boot and a stack high-water mark.
+    d.set_board(selftest::Inputs { fault: Some(FaultKind::HardFault), ..Default::default() });
+    d.set_stack_used(2412);
+    assert_eq!(
+        run(&mut d, &mut f, "PINAC,STATUS").0,
+        "PINAR,OK,STATUS,DEFAULTS,,IWDG,0001,00,R,HARDFAULT,2412"
+    );
 }
 
 #[test]
@@ -153,7 +172,7 @@ fn get_and_set_every_setting() {
     assert!((d.settings().filter.ekf.yaw_drift_rate - mathf::deg(16.2) / 3600.0).abs() < 1e-10);
     let (r, _) = run(&mut d, &mut f, "PINAC,SET,accel_cal.o,0.01,-0.02,1e-3");
     assert_eq!(r, "PINAR,OK,SET,accel_cal.o,0.01,-0.02,0.001");
-    assert_eq!(run(&mut d, &mut f, "PINAC,STATUS").0, "PINAR,OK,STATUS,DEFAULTS,,POR,0003,00,R");
+    assert_eq!(run(&mut d, &mut f, "PINAC,STATUS").0, "PINAR,OK,STATUS,DEFAULTS,,POR,0003,00,R,,");
 }
 
 #[test]
@@ -306,9 +325,9 @@ fn yaw_rate_sentences_and_raw_mode() {
     assert_eq!(d.settings().sentences.talker, crate::registry::talker_code(*b"II"));
     // The heading reference the application notes is in `STATUS`.
     d.set_heading_ref(crate::pipeline::HeadingRef::True);
-    assert!(run(&mut d, &mut f, "PINAC,STATUS").0.ends_with(",T"));
+    assert!(run(&mut d, &mut f, "PINAC,STATUS").0.ends_with(",T,,"));
     d.set_heading_ref(crate::pipeline::HeadingRef::Magnetic);
-    assert!(run(&mut d, &mut f, "PINAC,STATUS").0.ends_with(",M"));
+    assert!(run(&mut d, &mut f, "PINAC,STATUS").0.ends_with(",M,,"));
     // Raw mode: $PINAW every cycle, $PINAX when the depth (or magnetometer) was read.
     let mut n = Noise(1);
     let i = inputs([0.0; 3], [0.0, 0.0, 1.0], &mut n);
@@ -456,7 +475,7 @@ fn six_position_accelerometer_calibration() {
         }
         fit.add_position(pos, Vec3::new(mean[0], mean[1], mean[2]));
     }
-    assert_eq!(run(&mut d, &mut f, "PINAC,STATUS").0, "PINAR,OK,STATUS,DEFAULTS,,POR,0001,3F,R");
+    assert_eq!(run(&mut d, &mut f, "PINAC,STATUS").0, "PINAR,OK,STATUS,DEFAULTS,,POR,0001,3F,R,,");
     // The host fits X from the six means and sets it row by row.
     let cal = fit.solve().unwrap();
     for (row, name) in cal.x.iter().zip(["x", "y", "z", "o"]) {
@@ -479,7 +498,7 @@ fn six_position_accelerometer_calibration() {
     }
     assert_eq!(reply.as_deref(), Some("PINAR,ERR,ACAL,position"));
     assert_eq!(run(&mut d, &mut f, "PINAC,ACAL,CLEAR").0, "PINAR,OK,ACAL,CLEAR");
-    assert_eq!(run(&mut d, &mut f, "PINAC,STATUS").0, "PINAR,OK,STATUS,DEFAULTS,,POR,0003,00,R");
+    assert_eq!(run(&mut d, &mut f, "PINAC,STATUS").0, "PINAR,OK,STATUS,DEFAULTS,,POR,0003,00,R,,");
 }
 
 #[test]
@@ -488,19 +507,19 @@ fn save_load_reset_and_status() {
     let mut f = SimFlash::new();
     run(&mut d, &mut f, "PINAC,SET,depth.density,998");
     assert_eq!(run(&mut d, &mut f, "PINAC,SAVE").0, "PINAR,OK,SAVE,A,1");
-    assert_eq!(run(&mut d, &mut f, "PINAC,STATUS").0, "PINAR,OK,STATUS,A,1,POR,0001,00,R");
+    assert_eq!(run(&mut d, &mut f, "PINAC,STATUS").0, "PINAR,OK,STATUS,A,1,POR,0001,00,R,,");
     run(&mut d, &mut f, "PINAC,SET,depth.density,1000");
     assert_eq!(run(&mut d, &mut f, "PINAC,SAVE").0, "PINAR,OK,SAVE,B,2");
     let (r, a) = run(&mut d, &mut f, "PINAC,RESET");
     assert_eq!(r, "PINAR,OK,RESET");
     assert!(a.is_some());
     assert_eq!(*d.settings(), PipelineSettings::default());
-    assert_eq!(run(&mut d, &mut f, "PINAC,STATUS").0, "PINAR,OK,STATUS,DEFAULTS,,POR,0003,00,R");
+    assert_eq!(run(&mut d, &mut f, "PINAC,STATUS").0, "PINAR,OK,STATUS,DEFAULTS,,POR,0003,00,R,,");
     let (r, a) = run(&mut d, &mut f, "PINAC,LOAD");
     assert_eq!(r, "PINAR,OK,LOAD,B,2,0,0");
     assert!(a.is_some());
     assert_eq!(d.settings().depth.water_density_kg_m3, 1000.0);
-    assert_eq!(run(&mut d, &mut f, "PINAC,STATUS").0, "PINAR,OK,STATUS,B,2,POR,0000,00,R");
+    assert_eq!(run(&mut d, &mut f, "PINAC,STATUS").0, "PINAR,OK,STATUS,B,2,POR,0000,00,R,,");
     // A reboot finds the same.
     let d2 = Device::new(&persist::load(&f), "WDG");
     assert_eq!(d2.settings(), d.settings());

@@ -32,6 +32,11 @@ impl<I2C: I2c> Lsm303dlh<I2C> {
         self.i2c
     }
 
+    /// The bus (its counters, for the log and the self-test).
+    pub fn bus(&self) -> &I2C {
+        &self.i2c
+    }
+
     /// The bus, for tests that inject faults into it.
     #[cfg(test)]
     pub(crate) fn bus_mut(&mut self) -> &mut I2C {

@@ -142,6 +142,11 @@ impl<I2C: I2c> Imu<I2C> {
         (accel, divider as u16)
     }
 
+    /// The bus (its counters).
+    pub fn bus(&self) -> &I2C {
+        self.dev.bus()
+    }
+
     /// Whether the last configuration succeeded.
     pub fn configured(&self) -> bool {
         self.configured

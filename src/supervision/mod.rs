@@ -3,11 +3,23 @@
 //! - [`reset_cause`]: why the MCU last reset, from the RCC_CSR flags (reported at boot);
 //! - [`led`]: which LED pattern (init, running, fault) for what the filter reported;
 //! - [`watchdog`]: whether a filter cycle was healthy enough to feed the independent watchdog;
+//! - [`clock_check`]: whether the crystal is the 8 MHz one (measured against the HSI through
+//!   the LSI at boot), else the HSI;
+//! - [`fault_record`]: the HardFault/panic record kept in RAM across a reset (magic, CRC);
+//! - [`i2c_bus`]: the I²C bus with every transfer under an interrupt mask, and the bus clear
+//!   (nine clocks and a STOP) at boot and after repeated failures;
+//! - [`selftest`]: the bring-up self-test's grades (`SELFTEST`, and at boot);
+//! - [`stack`]: the measured stack high-water mark (painted stack);
 //! - [`imu`]: the LSM303DLH's read schedule with bounded retries, re-configuration after
 //!   failures and stuck-data detection.
 
+pub mod clock_check;
+pub mod fault_record;
+pub mod i2c_bus;
 pub mod imu;
 pub mod led;
 pub mod reset_cause;
+pub mod selftest;
+pub mod stack;
 pub mod stuck;
 pub mod watchdog;

@@ -328,6 +328,13 @@ class Machine:
         self.stack_top = RAM_BASE + RAM_SIZE
         if "_stack_start" in self.elf.objects:
             self.stack_top = self.elf.objects["_stack_start"][0]
+        # The lowest address the stack may reach: above the static data, or (flip-link, which
+        # puts the stack below the static data) cortex-m-rt's `_stack_end` at the bottom of RAM.
+        self.stack_bottom = self.ram_end
+        if "_stack_end" in self.elf.objects:
+            end = self.elf.objects["_stack_end"][0]
+            if RAM_BASE <= end < self.stack_top:
+                self.stack_bottom = (end + 3) & ~3
         self.uc.mem_write(RETURN_ADDR, b"\x00\xbe" * 8)  # bkpt, never reached
         self.md = capstone.Cs(capstone.CS_ARCH_ARM, capstone.CS_MODE_THUMB | capstone.CS_MODE_MCLASS)
         self.md.detail = True
@@ -496,14 +503,15 @@ class Machine:
 
     # -- stack ----------------------------------------------------------------------------
     def paint_stack(self):
-        self.uc.mem_write(self.ram_end, struct.pack("<I", PAINT) * ((self.stack_top - self.ram_end) // 4))
+        self.uc.mem_write(self.stack_bottom,
+                          struct.pack("<I", PAINT) * ((self.stack_top - self.stack_bottom) // 4))
 
     def stack_used(self) -> int:
-        data = bytes(self.uc.mem_read(self.ram_end, self.stack_top - self.ram_end))
+        data = bytes(self.uc.mem_read(self.stack_bottom, self.stack_top - self.stack_bottom))
         pat = struct.pack("<I", PAINT)
         for off in range(0, len(data), 4):
             if data[off:off + 4] != pat:
-                return self.stack_top - (self.ram_end + off)
+                return self.stack_top - (self.stack_bottom + off)
         return 0
 
     # -- flash of code ------------------------------------------------------------------
