@@ -332,7 +332,7 @@ impl Device {
             Err(Fail(Reason::Args, Detail::None))
         } else {
             let args = fields.get(2..n).unwrap_or(&[]);
-            self.run(verb, args, flash)
+            self.refusal_changes_nothing(|d| d.run(verb, args, flash))
         };
         match result {
             Ok((out, action)) => Response { reply: Some(out.finish()), action },
@@ -615,6 +615,23 @@ impl Device {
         Ok((out, action))
     }
 
+    /// Run `handler`; when it refuses, put the state back as it was before it. So a refused
+    /// command changes nothing by construction, whatever the handler did before it refused
+    /// (the handlers also validate every field before they change anything; this makes a
+    /// forgotten case harmless). Flash changes only through `SAVE`, whose refusals come before
+    /// it writes. Costs a copy of the device state (≈ 0.6 KB of the command task's stack).
+    pub(super) fn refusal_changes_nothing(
+        &mut self,
+        handler: impl FnOnce(&mut Self) -> CmdResult,
+    ) -> CmdResult {
+        let before = self.clone();
+        let result = handler(self);
+        if result.is_err() {
+            *self = before;
+        }
+        result
+    }
+
     /// Make `new` the settings; an action when they changed.
     fn commit(&mut self, new: PipelineSettings) -> Option<Action> {
         // Through the registry: the derived comparison costs ≈ 0.9 KB of flash.
@@ -751,5 +768,40 @@ fn value_fail(s: &Setting, e: ValueError) -> Fail {
         ValueError::Args => Fail(Reason::Args, Detail::Count(s.kind.fields() as u32)),
         ValueError::Type => Fail(Reason::Type, Detail::Kind(s.kind.name())),
         ValueError::Range => Fail(Reason::Range, range_detail(s)),
+    }
+}
+
+#[cfg(test)]
+mod refusal {
+    use super::*;
+
+    /// A refused command changes nothing by construction (issue #17): a handler that changes the
+    /// device and then refuses — the `SENT,0,x` mutation that once set `output.prdid` before
+    /// replying `ERR`, with every test green — leaves no trace, because `execute` puts the state
+    /// back on every refusal.
+    #[test]
+    fn a_handler_that_changes_the_state_and_then_refuses_leaves_no_trace() {
+        let mut d = super::super::tests::fresh();
+        let before = d.clone();
+        let r = d.refusal_changes_nothing(|d| {
+            d.settings.sentences.prdid = !d.settings.sentences.prdid;
+            d.dirty = true;
+            d.raw = true;
+            Err(Reason::Type.into())
+        });
+        assert!(r.is_err());
+        assert_eq!(d, before);
+        // An accepted command keeps its changes.
+        let r = d.refusal_changes_nothing(|d| {
+            d.raw = true;
+            Ok((Out::ok("RAW"), None))
+        });
+        assert!(r.is_ok() && d.raw);
+        // And the real `SENT,0,x`: refused, nothing changed.
+        let before = d.clone();
+        let mut f = crate::persist::SimFlash::new();
+        let r = d.execute(&super::super::tests::cmd("PINAC,SENT,0,x"), &mut f);
+        assert_eq!(r.reply.expect("a reply").as_str(), "$PINAR,ERR,SENT,type,bool*1B\r\n");
+        assert_eq!(d, before);
     }
 }
