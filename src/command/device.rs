@@ -620,7 +620,7 @@ impl Device {
     /// (the handlers also validate every field before they change anything; this makes a
     /// forgotten case harmless). Flash changes only through `SAVE`, whose refusals come before
     /// it writes. Costs a copy of the device state (≈ 0.6 KB of the command task's stack).
-    pub(super) fn refusal_changes_nothing(
+    fn refusal_changes_nothing(
         &mut self,
         handler: impl FnOnce(&mut Self) -> CmdResult,
     ) -> CmdResult {
