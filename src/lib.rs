@@ -18,4 +18,6 @@ pub mod nmea;
 pub mod persist;
 pub mod pipeline;
 pub mod registry;
+pub mod settings;
+pub mod status;
 pub mod supervision;

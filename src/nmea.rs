@@ -54,9 +54,9 @@ mod pinab;
 mod pinah;
 mod prdid;
 mod sentence;
-mod status;
 mod verify;
 
+pub use crate::status::Status;
 pub use error::NmeaError;
 pub use marine::{hdg, hdm, hdt, rot, xdr};
 pub use number::{round_scaled, AngleRange, Sign, MAX_DECIMALS};
@@ -64,5 +64,4 @@ pub use pinab::pinab;
 pub use pinah::{pinah, PinahData, PINAH_CYCLE_MAX_US};
 pub use prdid::prdid;
 pub use sentence::{checksum, is_body_byte, Sentence, MAX_BODY_LEN, MAX_SENTENCE_LEN};
-pub use status::Status;
 pub use verify::verify;

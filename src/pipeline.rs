@@ -5,139 +5,16 @@
 //! emulated run (`ekf-emu`) calls the very same function.
 
 use ekf_core::{
-    conditioning::{Conditioner, ConditioningSettings},
-    mathf,
-    settings::Settings,
-    AttitudeFilter, Ekf, Euler, Flags, Quaternion, Vec3, GRAVITY,
+    conditioning::Conditioner, mathf, AttitudeFilter, Ekf, Euler, Flags, Quaternion, Vec3, GRAVITY,
 };
 
+pub use crate::settings::{PipelineSettings, SentenceSet};
+pub use crate::status::HeadingRef;
 use crate::{
-    adc::{AdcMean, AdcScale, DepthCalibration, GyroConversion},
-    board,
+    adc::AdcMean,
     nmea::{self, PinahData, Sentence, Status},
     registry::{self, Part},
 };
-
-/// Which sentences go out, and the talker of the standard ones.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct SentenceSet {
-    /// `$PRDID` (pitch, roll, heading; RDI convention). Default on.
-    pub prdid: bool,
-    /// `$PINAH` (full state). Default on.
-    pub pinah: bool,
-    /// `$--HDT` (true heading; only while the heading is referenced to true north). Default
-    /// off.
-    pub hdt: bool,
-    /// `$--HDG` (magnetic heading and variation; only with the magnetometer). Default off.
-    pub hdg: bool,
-    /// `$--HDM` (magnetic heading; only with the magnetometer). Default off.
-    pub hdm: bool,
-    /// `$--ROT` (rate of turn). Default off.
-    pub rot: bool,
-    /// `$--XDR` (pitch, roll, depth). Default off.
-    pub xdr: bool,
-    /// Talker identifier of the standard sentences ([`registry::talker_code`]). Default `HC`.
-    pub talker: u16,
-}
-
-impl Default for SentenceSet {
-    fn default() -> Self {
-        SentenceSet {
-            prdid: true,
-            pinah: true,
-            hdt: false,
-            hdg: false,
-            hdm: false,
-            rot: false,
-            xdr: false,
-            talker: registry::talker_code(*b"HC"),
-        }
-    }
-}
-
-/// What the heading is referenced to.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum HeadingRef {
-    /// Relative: integrated from the gyros since the start (from `init.yaw0`), not tied to
-    /// north.
-    #[default]
-    Relative,
-    /// True north, set by the operator (`YAW`, a true heading); the gyros carry it since.
-    True,
-    /// True north from the magnetometer (magnetic heading plus `mag.declination`).
-    Magnetic,
-}
-
-impl HeadingRef {
-    /// The letter sent in `$PINAH` and `STATUS`: `R`, `T` or `M`.
-    pub const fn letter(self) -> &'static str {
-        match self {
-            HeadingRef::Relative => "R",
-            HeadingRef::True => "T",
-            HeadingRef::Magnetic => "M",
-        }
-    }
-
-    /// True when the heading is referenced to true north (`HDT` may go out).
-    pub const fn is_true(self) -> bool {
-        !matches!(self, HeadingRef::Relative)
-    }
-}
-
-/// Everything the pipeline needs; `Default` is the iNEMO V2 on the Seahog.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct PipelineSettings {
-    /// Estimator settings (noise, init window, gate, rest detection, ...).
-    pub filter: Settings,
-    /// Axis maps, calibration and lever arm. Default: the board's axis maps
-    /// ([`board::ACCEL_AXES`], [`board::GYRO_AXES`], [`board::MAG_AXES`]), identity
-    /// calibration, the Seahog's lever arm.
-    pub conditioning: ConditioningSettings,
-    /// ADC counts → volts.
-    pub adc: AdcScale,
-    /// Gyro volts → rad/s.
-    pub gyro: GyroConversion,
-    /// Depth sensor volts → pressure → depth.
-    pub depth: DepthCalibration,
-    /// Filter rate, Hz. Default 50 (the source's); up to 200 supported.
-    pub filter_rate_hz: u16,
-    /// Output rate, Hz, 1–50 (at most the filter rate). Default 10.
-    pub output_rate_hz: u16,
-    /// Sentences to send.
-    pub sentences: SentenceSet,
-}
-
-impl Default for PipelineSettings {
-    // Out of line: the firmware builds the defaults in several places (boot, `RESET`, the
-    // flash loader) and one copy of this code is enough.
-    #[inline(never)]
-    fn default() -> Self {
-        PipelineSettings {
-            filter: Settings::default(),
-            conditioning: ConditioningSettings {
-                gyro_axes: board::GYRO_AXES,
-                accel_axes: board::ACCEL_AXES,
-                mag_axes: board::MAG_AXES,
-                ..ConditioningSettings::default()
-            },
-            adc: AdcScale::default(),
-            gyro: GyroConversion::default(),
-            depth: DepthCalibration::default(),
-            filter_rate_hz: 50,
-            output_rate_hz: 10,
-            sentences: SentenceSet::default(),
-        }
-    }
-}
-
-impl PipelineSettings {
-    /// Filter cycles per output: `filter_rate / output_rate`, at least 1.
-    pub fn output_divider(&self) -> u32 {
-        let f = u32::from(self.filter_rate_hz.max(1));
-        let o = u32::from(self.output_rate_hz.clamp(1, 50));
-        (f / o).max(1)
-    }
-}
 
 /// One filter cycle's input, as the hardware tasks deliver it.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -443,6 +320,7 @@ impl Pipeline {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::board;
     use crate::nmea::verify;
     use ekf_core::mathf::deg;
 

@@ -95,11 +95,11 @@ enum Cmd {
     Bridge {
         /// Serial port.
         port: String,
-        /// Send every sentence as a UDP datagram to host[:port] (port 10110 by default; a
+        /// Send every sentence as a UDP datagram to `host[:port]` (port 10110 by default; a
         /// broadcast address works).
         #[arg(long)]
         udp: Option<String>,
-        /// Serve TCP clients on addr[:port] (10110 by default): they get the sentences, and
+        /// Serve TCP clients on `addr[:port]` (10110 by default): they get the sentences, and
         /// their lines go to the device (a command body such as `SENT,HDT,1`, or a sentence).
         #[arg(long)]
         tcp: Option<String>,

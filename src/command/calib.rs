@@ -6,7 +6,7 @@
 use ekf_core::accel_calibration::Position;
 use ekf_core::mathf;
 
-use crate::pipeline::PipelineSettings;
+use crate::settings::PipelineSettings;
 
 /// Running mean and variance of three channels (Welford, `f32`: no `f64` soft-float on the
 /// target; a mean over 10^5 samples keeps about 6 digits, far below the noise).

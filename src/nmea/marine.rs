@@ -130,7 +130,7 @@ pub fn xdr(
 mod tests {
     use super::*;
     use crate::nmea::{verify, MAX_SENTENCE_LEN};
-    use crate::registry::talker_code;
+    use crate::settings::talker_code;
     use ekf_core::mathf::deg;
 
     const HC: u16 = talker_code(*b"HC");

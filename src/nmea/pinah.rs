@@ -6,8 +6,8 @@ use ekf_core::{Euler, Quaternion};
 use super::error::NmeaError;
 use super::number::{round_scaled, AngleRange, Sign};
 use super::sentence::Sentence;
-use super::status::Status;
-use crate::pipeline::HeadingRef;
+use crate::status::HeadingRef;
+use crate::status::Status;
 
 /// Decimals of the Euler angles.
 const ANGLE_DECIMALS: u8 = 2;

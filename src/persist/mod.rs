@@ -36,8 +36,8 @@ mod flash;
 pub use crc::{crc32, Crc32};
 pub use flash::{Flash, FlashError, Page, SimFlash, SIM_PAGE_SIZE};
 
-use crate::pipeline::PipelineSettings;
 use crate::registry::SETTINGS;
+use crate::settings::PipelineSettings;
 
 /// Commit word: the record is complete.
 pub const COMMIT: u16 = 0x5AA5;

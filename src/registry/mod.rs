@@ -30,7 +30,8 @@ use ekf_core::mathf;
 use ext::Ext;
 
 use crate::nmea::{NmeaError, Sentence};
-use crate::pipeline::PipelineSettings;
+use crate::settings::PipelineSettings;
+pub use crate::settings::{talker_code, talker_valid};
 
 /// Type of a setting's value.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -50,17 +51,6 @@ pub enum Kind {
     /// are taken as uppercase). Stored as [`Value::U16`], the two ASCII bytes big-endian
     /// ([`talker_code`]).
     Talker,
-}
-
-/// The internal value of a [`Kind::Talker`] setting: the two ASCII bytes, big-endian.
-pub const fn talker_code(talker: [u8; 2]) -> u16 {
-    u16::from_be_bytes(talker)
-}
-
-/// True when `code` ([`talker_code`]) is two characters `A`–`Z` or `0`–`9`.
-pub const fn talker_valid(code: u16) -> bool {
-    let [a, b] = code.to_be_bytes();
-    matches!(a, b'A'..=b'Z' | b'0'..=b'9') && matches!(b, b'A'..=b'Z' | b'0'..=b'9')
 }
 
 impl Kind {

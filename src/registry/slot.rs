@@ -6,7 +6,7 @@ use ekf_core::axis_map::AxisMap;
 use ekf_core::Vec3;
 
 use super::Value;
-use crate::pipeline::PipelineSettings;
+use crate::settings::PipelineSettings;
 
 /// A typed reference to one setting's storage (internal units).
 pub(super) enum Slot<'a> {

@@ -2,7 +2,7 @@
 
 use super::slot::Slot;
 use super::{unit_index, Kind, Scale, Setting};
-use crate::pipeline::PipelineSettings;
+use crate::settings::PipelineSettings;
 
 /// rad/s → °/s (and rad → °).
 const DEG: f64 = Scale::Deg.factor();

@@ -9,7 +9,7 @@
 //!   (or the gyros still settling before the first cycle);
 //! - running, a 50 ms flash once per second.
 
-use crate::nmea::Status;
+use crate::status::Status;
 use ekf_core::Flags;
 
 /// Slots per frame.

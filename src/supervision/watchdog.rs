@@ -9,7 +9,7 @@
 
 use ekf_core::Flags;
 
-use crate::nmea::Status;
+use crate::status::Status;
 
 /// Consecutive cycles with an estimator health reset after which the cycles no longer count
 /// as healthy.

@@ -1,10 +1,10 @@
-//! The status word of `$PINAH`.
+//! What the device reports about its state: the status word of `$PINAH` ([`Status`]) and
+//! the heading reference ([`HeadingRef`]). In a module of their own so that the NMEA sentences
+//! and the supervision both depend on them and not on each other.
 
 use core::ops::{BitOr, BitOrAssign};
 
 use ekf_core::Flags;
-
-use crate::pipeline::HeadingRef;
 
 /// Status word sent in `$PINAH`'s status field: bits 0–15 are the estimator's
 /// [`ekf_core::Flags`] of the cycle, bits 16–19 are board-level conditions (the constants
@@ -85,6 +85,35 @@ impl BitOr for Status {
 impl BitOrAssign for Status {
     fn bitor_assign(&mut self, o: Status) {
         self.0 |= o.0;
+    }
+}
+
+/// What the heading is referenced to.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum HeadingRef {
+    /// Relative: integrated from the gyros since the start (from `init.yaw0`), not tied to
+    /// north.
+    #[default]
+    Relative,
+    /// True north, set by the operator (`YAW`, a true heading); the gyros carry it since.
+    True,
+    /// True north from the magnetometer (magnetic heading plus `mag.declination`).
+    Magnetic,
+}
+
+impl HeadingRef {
+    /// The letter sent in `$PINAH` and `STATUS`: `R`, `T` or `M`.
+    pub const fn letter(self) -> &'static str {
+        match self {
+            HeadingRef::Relative => "R",
+            HeadingRef::True => "T",
+            HeadingRef::Magnetic => "M",
+        }
+    }
+
+    /// True when the heading is referenced to true north (`HDT` may go out).
+    pub const fn is_true(self) -> bool {
+        !matches!(self, HeadingRef::Relative)
     }
 }
 
