@@ -1,21 +1,20 @@
 //! The iNEMO V2 firmware: an RTIC 2 application for the STM32F103RE that moves data between
 //! the board's peripherals and the library's [`Pipeline`](inemo_ahrs::pipeline::Pipeline).
 //!
-//! Tasks (priority: higher preempts lower; `usart2_rx` and `command`, the settings loaded
-//! from flash and everything marked *commands* only with the feature `serial-commands`):
+//! Tasks (priority: higher preempts lower):
 //!
 //! | task | kind | prio | does |
 //! |---|---|---|---|
 //! | `adc_frame` | hardware, DMA1_CHANNEL1 | 3 | copies the finished ADC frame (1 kHz) into the shared `Averager` |
 //! | `usart2_rx` | hardware, USART2 (RXNE) | 4 | received bytes → `LineAssembler`; complete lines queued for `command` |
-//! | `filter` | async, every 1/filter_rate_hz (SysTick monotonic) | 2 | applies pending command actions (*commands*), reads the LSM303DLH, takes the ADC mean, runs `Pipeline::step` and `Device::on_cycle` (*commands*), starts the USART DMA (sentences + queued replies), feeds the watchdog |
+//! | `filter` | async, every 1/filter_rate_hz (SysTick monotonic) | 2 | applies pending command actions, reads the LSM303DLH, takes the ADC mean, runs `Pipeline::step` and `Device::on_cycle`, starts the USART DMA (sentences + queued replies), feeds the watchdog |
 //! | `command` | async, spawned per received line | 1 | `Device::handle` (may write the settings flash), queues the reply and the action |
 //! | `blink` | async, 50 ms slots | 1 | LED pattern from the status the filter reported |
 //!
 //! Messages: `adc_frame` → `filter` through the shared [`AdcShared`](app::AdcShared) (frames
 //! averaged in place, lost frames and DMA errors counted); `filter` → `blink` through the
 //! shared [`Health`](app::led::Health) (union of the cycles' status words and a cycle count);
-//! with `serial-commands`, `usart2_rx` → `command` through the shared [`RxLines`](app::commands::RxLines) ring;
+//! `usart2_rx` → `command` through the shared [`RxLines`](app::commands::RxLines) ring;
 //! `command` → `filter` through the shared [`CommandState`](app::commands::CommandState)
 //! (the `Device`, the replies waiting for the transmitter and the pending actions).
 //! TIM3 triggers the ADC scans in hardware; DMA1 channel 7 sends the sentences without the CPU.
@@ -52,10 +51,7 @@ mod firmware {
     use core::num::NonZeroU32;
 
     use cortex_m::peripheral::DWT;
-    #[cfg(feature = "serial-commands")]
     use ekf_core::ImuSample;
-    #[cfg(not(feature = "serial-commands"))]
-    use inemo_ahrs::pipeline::PipelineSettings;
     use inemo_ahrs::supervision::{
         clock_check::HseCheck,
         led::{self, Health},
@@ -71,7 +67,6 @@ mod firmware {
     // The types of the command layer's local resources are named in both variants (RTIC's
     // generated code names them even when their `#[cfg]` is off).
     use inemo_ahrs::command::LineAssembler;
-    #[cfg(feature = "serial-commands")]
     use inemo_ahrs::{
         command::Device,
         persist::{self, Source},
@@ -86,7 +81,6 @@ mod firmware {
     };
     use stm32f1xx_hal::{pac::USART2, serial::Rx};
 
-    #[cfg(feature = "serial-commands")]
     use crate::app::commands::{CommandState, Ring, RxLines, REPLY_SLOTS};
     use crate::app::settings_flash::SettingsFlash;
     use crate::app::{
@@ -108,27 +102,14 @@ mod firmware {
     const GYRO_SETTLE_MS: u32 = 500;
 
     /// Reads of the USART per RX interrupt at most (one byte is normally waiting).
-    #[cfg(feature = "serial-commands")]
     const RX_READS_PER_IRQ: u8 = 4;
-
-    // The command layer's shared resources: `()` without `serial-commands`. (A `#[cfg]` on a
-    // locked shared resource does not build when it is on: RTIC 2.4 puts the attribute on an
-    // expression in the resource's lock.)
-    #[cfg(feature = "serial-commands")]
-    type RxShared = RxLines;
-    #[cfg(feature = "serial-commands")]
-    type CmdShared = CommandState;
-    #[cfg(not(feature = "serial-commands"))]
-    type RxShared = ();
-    #[cfg(not(feature = "serial-commands"))]
-    type CmdShared = ();
 
     #[shared]
     struct Shared {
         adc: AdcShared,
         health: Health,
-        rx: RxShared,
-        cmd: CmdShared,
+        rx: RxLines,
+        cmd: CommandState,
     }
 
     #[local]
@@ -140,9 +121,7 @@ mod firmware {
         led: PB9<Output<PushPull>>,
         sysclk_hz: u32,
         board: selftest::Inputs,
-        #[cfg(feature = "serial-commands")]
         serial_rx: Rx<USART2>,
-        #[cfg(feature = "serial-commands")]
         flash: SettingsFlash,
         watchdog: Watchdog,
     }
@@ -166,11 +145,9 @@ mod firmware {
         let reset = clocks::take_reset_cause(&dp.RCC);
         // From here a hang resets the MCU (first feed at the end of the first healthy cycle).
         let watchdog = crate::app::watchdog::start(dp.IWDG, &dp.DBGMCU);
-        #[cfg_attr(not(feature = "serial-commands"), allow(unused_variables))]
         let (mut rcc, source, flash, hse_check) = clocks::freeze(dp.RCC, dp.FLASH);
 
         // The settings: the newest valid flash record, else the defaults.
-        #[cfg(feature = "serial-commands")]
         let (flash, loaded, device, settings) = {
             let flash = SettingsFlash::new(flash);
             let loaded = persist::load(&flash);
@@ -180,8 +157,6 @@ mod firmware {
         };
         // Without the command layer: `PipelineSettings::default()` (50 Hz filter, 10 Hz
         // output). Set `filter_rate_hz` here for another rate (up to 200 Hz).
-        #[cfg(not(feature = "serial-commands"))]
-        let settings = PipelineSettings::default();
         let clocks = rcc.clocks;
         let sysclk_hz = clocks.sysclk().raw();
         // Asserts that SYSCLK is a multiple of the tick rate: 72 and 64 MHz both are, so a
@@ -201,8 +176,7 @@ mod firmware {
 
         let dma1 = dp.DMA1.split(&mut rcc);
 
-        // USART2: TX PA2 by DMA1 channel 7; RX PA3 (commands, feature `serial-commands`) by
-        // the RXNE interrupt.
+        // USART2: TX PA2 by DMA1 channel 7; RX PA3 (commands) by the RXNE interrupt.
         let usart2_dr = dp.USART2.dr().as_ptr() as u32;
         let serial = Serial::new(
             dp.USART2,
@@ -215,14 +189,11 @@ mod firmware {
             Config::default().baudrate(Bps(board::USART_BAUD)),
             &mut rcc,
         );
-        #[cfg(feature = "serial-commands")]
         let (tx, serial_rx) = {
             let (tx, mut serial_rx) = serial.split();
             serial_rx.listen();
             (tx, serial_rx)
         };
-        #[cfg(not(feature = "serial-commands"))]
-        let (tx, _rx) = serial.split();
         let mut tx = DmaTx::new(tx.with_dma(dma1.7), cx.local.tx_buf, usart2_dr);
 
         // I²C2 (PB10 SCL, PB11 SDA), fast mode, every transfer bounded in time.
@@ -305,7 +276,6 @@ mod firmware {
             depth_v: Some((ranks.depth_v, false)),
             bus_clears: bus.clears,
             last_clear: bus.last_clear,
-            #[cfg(feature = "serial-commands")]
             settings_from_flash: matches!(loaded.source, Source::Flash { .. }),
             fault: fault.map(|(kind, _)| kind),
             ..selftest::Inputs::default()
@@ -338,7 +308,6 @@ mod firmware {
             }
             HseCheck::NotStarted => defmt::error!("HSE did not start: running from HSI at 64 MHz"),
         }
-        #[cfg(feature = "serial-commands")]
         match loaded.source {
             Source::Flash { page, seq } => defmt::println!(
                 "settings: flash page {=str}, sequence {=u32}, {=u16} entries skipped, {=u16} settings missing",
@@ -349,14 +318,11 @@ mod firmware {
             ),
             Source::Defaults => defmt::println!("settings: no valid flash record, defaults"),
         }
-        // With `serial-commands` the boot sentence says where the settings came from.
-        #[cfg(feature = "serial-commands")]
+        // The boot sentence says where the settings came from.
         let settings_field = Some(match loaded.source {
             Source::Flash { page, .. } => page.name(),
             Source::Defaults => "DEFAULTS",
         });
-        #[cfg(not(feature = "serial-commands"))]
-        let settings_field = None;
         let version = env!("CARGO_PKG_VERSION");
         // The boot sentence, and the fault record's report when there is one.
         let fault_report = fault.map(|(kind, regs)| inemo_ahrs::command::fault_reply(kind, &regs));
@@ -383,14 +349,8 @@ mod firmware {
             Shared {
                 adc: AdcShared::default(),
                 health: Health::default(),
-                #[cfg(feature = "serial-commands")]
                 rx: RxLines::default(),
-                #[cfg(feature = "serial-commands")]
                 cmd: CommandState::new(device),
-                #[cfg(not(feature = "serial-commands"))]
-                rx: (),
-                #[cfg(not(feature = "serial-commands"))]
-                cmd: (),
             },
             Local {
                 adc_scan,
@@ -400,9 +360,7 @@ mod firmware {
                 led,
                 sysclk_hz,
                 board,
-                #[cfg(feature = "serial-commands")]
                 serial_rx,
-                #[cfg(feature = "serial-commands")]
                 flash,
                 watchdog,
             },
@@ -424,7 +382,6 @@ mod firmware {
     }
 
     /// Received bytes: into the line assembler; a complete line is queued for `command`.
-    #[cfg(feature = "serial-commands")]
     #[task(binds = USART2, priority = 4, local = [serial_rx, assembler: LineAssembler = LineAssembler::new()], shared = [rx])]
     fn usart2_rx(mut cx: usart2_rx::Context) {
         for _ in 0..RX_READS_PER_IRQ {
@@ -446,7 +403,6 @@ mod firmware {
     }
 
     /// A receive error flag (overrun, noise, framing, parity) of USART2 is set.
-    #[cfg(feature = "serial-commands")]
     fn rx_error() -> bool {
         // SAFETY: a read of the status register; the flags are cleared by the read sequence
         // in `Rx::read`, which only `usart2_rx` calls.
@@ -459,7 +415,6 @@ mod firmware {
 
     /// Executes the queued command lines: the reply and the action go to the filter task.
     /// `SAVE` writes the flash here (the CPU stalls for the erase, a few filter cycles late).
-    #[cfg(feature = "serial-commands")]
     #[task(priority = 1, local = [flash], shared = [rx, cmd])]
     async fn command(mut cx: command::Context) {
         while let Some(event) = cx.shared.rx.lock(|rx| rx.lines.pop()) {
@@ -475,7 +430,6 @@ mod firmware {
     /// `budget` bytes (what the USART sends in one filter period; one reply always goes when
     /// the batch is otherwise empty). While the previous transfer runs the sentences are
     /// dropped (counted) and the replies wait.
-    #[cfg(feature = "serial-commands")]
     fn transmit<'a>(
         tx: &mut DmaTx,
         sentences: impl Iterator<Item = &'a Sentence>,
@@ -530,11 +484,7 @@ mod firmware {
     /// then is the watchdog fed.
     #[task(priority = 2, local = [imu, pipeline, tx, sysclk_hz, watchdog, board], shared = [adc, health, rx, cmd])]
     async fn filter(mut cx: filter::Context) {
-        #[cfg(feature = "serial-commands")]
         let (mut period, mut nominal_dt, mut stats_every, mut budget) =
-            timing(cx.local.pipeline.settings().filter_rate_hz);
-        #[cfg(not(feature = "serial-commands"))]
-        let (period, nominal_dt, stats_every, _) =
             timing(cx.local.pipeline.settings().filter_rate_hz);
         let sysclk = *cx.local.sysclk_hz;
         // Non-zero divisors: no division-by-zero check (and panic path) in the loop.
@@ -601,7 +551,6 @@ mod firmware {
             };
 
             // What the commands since the last cycle asked for.
-            #[cfg(feature = "serial-commands")]
             let step = {
                 let (pending, settings, raw) = cx.shared.cmd.lock(|c| {
                     (core::mem::take(&mut c.pending), *c.device.settings(), c.device.raw_mode())
@@ -647,15 +596,6 @@ mod firmware {
                 }
                 step
             };
-            #[cfg(not(feature = "serial-commands"))]
-            let step = {
-                let step = cx.local.pipeline.step(&inputs);
-                if step.sentences.iter().next().is_some() {
-                    cx.local.tx.send(step.sentences.iter().map(Sentence::as_bytes));
-                }
-                cx.shared.health.lock(|h| h.record(step.status));
-                step
-            };
 
             last_cycle_us = DWT::cycle_count().wrapping_sub(start) / cycles_per_us;
             max_cycle_us = max_cycle_us.max(last_cycle_us);
@@ -665,11 +605,9 @@ mod firmware {
                 // about 13,000 words, 0.6 ms at 72 MHz, every 10 s).
                 let stack_used = crate::app::stack::used();
                 defmt::info!("stack: {=u32} bytes used at most", stack_used);
-                #[cfg(feature = "serial-commands")]
                 cx.shared.cmd.lock(|c| c.device.set_stack_used(stack_used));
             }
             if cycle % stats_every == 0 {
-                #[cfg(feature = "serial-commands")]
                 {
                     let (rx_errors, lines_dropped) =
                         cx.shared.rx.lock(|rx| (rx.errors, rx.lines.dropped));

@@ -1,20 +1,15 @@
 //! Board glue used by the RTIC application in `main.rs` (bare-metal targets only): the clock
 //! tree, the ADC scan, USART transmission, the LSM303DLH's bus, the command queues and the
-//! settings flash (feature `serial-commands`), the independent watchdog and the panic handler.
+//! settings flash, the independent watchdog and the panic handler.
 //! The decisions (LED pattern, watchdog feeding, reset cause, sensor retries) are the
 //! library's `inemo_ahrs::supervision`.
 
 pub mod adc_scan;
 pub mod clocks;
-#[cfg(feature = "serial-commands")]
 pub mod commands;
 pub mod fault;
 pub mod imu;
 mod panic;
-// Compiled in both variants: RTIC's generated code names the types of the local resources
-// even when their `#[cfg]` is off; without `serial-commands` nothing uses it (the linker drops
-// it).
-#[cfg_attr(not(feature = "serial-commands"), allow(dead_code))]
 pub mod settings_flash;
 pub mod stack;
 pub mod uart_tx;

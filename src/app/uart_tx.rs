@@ -14,11 +14,7 @@ use inemo_ahrs::pipeline::MAX_SENTENCES;
 use stm32f1xx_hal::serial::TxDma2;
 
 /// Buffer for one batch: the sentences of a cycle at their longest and one command reply.
-#[cfg(feature = "serial-commands")]
 pub const TX_BUF_LEN: usize = (MAX_SENTENCES + 1) * MAX_SENTENCE_LEN;
-/// Buffer for one batch: the sentences of a cycle at their longest.
-#[cfg(not(feature = "serial-commands"))]
-pub const TX_BUF_LEN: usize = MAX_SENTENCES * MAX_SENTENCE_LEN;
 const _: () = assert!(TX_BUF_LEN <= u16::MAX as usize, "DMA transfer length is 16 bits");
 
 /// The transmitter and its counters.
@@ -97,13 +93,11 @@ pub struct Batch<'t> {
 
 impl Batch<'_> {
     /// Bytes in the batch so far.
-    #[cfg(feature = "serial-commands")]
     pub fn len(&self) -> usize {
         self.len
     }
 
     /// True when nothing was added.
-    #[cfg(feature = "serial-commands")]
     pub fn is_empty(&self) -> bool {
         self.len == 0
     }
