@@ -14,7 +14,7 @@
 //! Messages: `adc_frame` → `filter` through the shared [`AdcShared`](app::AdcShared) (frames
 //! averaged in place, lost frames and DMA errors counted); `filter` → `blink` through the
 //! shared [`Health`](app::led::Health) (union of the cycles' status words and a cycle count);
-//! `usart2_rx` → `command` through the shared [`RxLines`](app::commands::RxLines) ring;
+//! `usart2_rx` → `command` through an `rtic-sync` channel of received lines;
 //! `command` → `filter` through the shared [`CommandState`](app::commands::CommandState)
 //! (the `Device`, the replies waiting for the transmitter and the pending actions).
 //! TIM3 triggers the ADC scans in hardware; DMA1 channel 7 sends the sentences without the CPU.
@@ -81,7 +81,7 @@ mod firmware {
     };
     use stm32f1xx_hal::{pac::USART2, serial::Rx};
 
-    use crate::app::commands::{CommandState, Ring, RxLines, REPLY_SLOTS};
+    use crate::app::commands::{CommandState, RxStats, LINE_SLOTS, REPLY_SLOTS};
     use crate::app::settings_flash::SettingsFlash;
     use crate::app::{
         adc_scan::{self, AdcPins, AdcScan},
@@ -91,6 +91,10 @@ mod firmware {
         watchdog::Watchdog,
         AdcShared,
     };
+    use heapless::Deque;
+    use inemo_ahrs::command::LineEvent;
+    use rtic_sync::channel::{Receiver, Sender};
+    use rtic_sync::make_channel;
 
     /// SysTick rate of the monotonic, Hz (the literal in `systick_monotonic!` must match).
     const MONO_HZ: u32 = 10_000;
@@ -108,7 +112,7 @@ mod firmware {
     struct Shared {
         adc: AdcShared,
         health: Health,
-        rx: RxLines,
+        rx: RxStats,
         cmd: CommandState,
     }
 
@@ -122,6 +126,7 @@ mod firmware {
         sysclk_hz: u32,
         board: selftest::Inputs,
         serial_rx: Rx<USART2>,
+        lines: Sender<'static, LineEvent, LINE_SLOTS>,
         flash: SettingsFlash,
         watchdog: Watchdog,
     }
@@ -344,12 +349,17 @@ mod firmware {
         if blink::spawn().is_err() {
             panic!("blink task spawned twice");
         }
+        // Received lines: the RX interrupt sends, the command task waits on them.
+        let (lines, line_rx) = make_channel!(LineEvent, LINE_SLOTS);
+        if command::spawn(line_rx).is_err() {
+            panic!("command task spawned twice");
+        }
 
         (
             Shared {
                 adc: AdcShared::default(),
                 health: Health::default(),
-                rx: RxLines::default(),
+                rx: RxStats::default(),
                 cmd: CommandState::new(device),
             },
             Local {
@@ -361,6 +371,7 @@ mod firmware {
                 sysclk_hz,
                 board,
                 serial_rx,
+                lines,
                 flash,
                 watchdog,
             },
@@ -381,8 +392,9 @@ mod firmware {
         cx.shared.adc.lock(|adc| adc.record(&serviced));
     }
 
-    /// Received bytes: into the line assembler; a complete line is queued for `command`.
-    #[task(binds = USART2, priority = 4, local = [serial_rx, assembler: LineAssembler = LineAssembler::new()], shared = [rx])]
+    /// Received bytes: into the line assembler; a complete line goes to `command` through the
+    /// channel (dropped and counted when it is full).
+    #[task(binds = USART2, priority = 4, local = [serial_rx, lines, assembler: LineAssembler = LineAssembler::new()], shared = [rx])]
     fn usart2_rx(mut cx: usart2_rx::Context) {
         for _ in 0..RX_READS_PER_IRQ {
             if !cx.local.serial_rx.is_rx_not_empty() && !rx_error() {
@@ -391,10 +403,9 @@ mod firmware {
             match cx.local.serial_rx.read() {
                 Ok(byte) => {
                     if let Some(event) = cx.local.assembler.push(byte) {
-                        cx.shared.rx.lock(|rx| rx.lines.push(event));
-                        // Already running: it takes the line before it ends (or the filter
-                        // task spawns it again at its next cycle).
-                        let _ = command::spawn();
+                        if cx.local.lines.try_send(event).is_err() {
+                            cx.shared.rx.lock(|rx| rx.dropped = rx.dropped.saturating_add(1));
+                        }
                     }
                 }
                 Err(_) => cx.shared.rx.lock(|rx| rx.errors = rx.errors.saturating_add(1)),
@@ -413,11 +424,15 @@ mod firmware {
             || sr.pe().bit_is_set()
     }
 
-    /// Executes the queued command lines: the reply and the action go to the filter task.
-    /// `SAVE` writes the flash here (the CPU stalls for the erase, a few filter cycles late).
-    #[task(priority = 1, local = [flash], shared = [rx, cmd])]
-    async fn command(mut cx: command::Context) {
-        while let Some(event) = cx.shared.rx.lock(|rx| rx.lines.pop()) {
+    /// Executes the received command lines as they come: the reply and the action go to the
+    /// filter task. `SAVE` writes the flash here (the CPU stalls for the erase, a few filter
+    /// cycles late).
+    #[task(priority = 1, local = [flash], shared = [cmd])]
+    async fn command(
+        mut cx: command::Context,
+        mut lines: Receiver<'static, LineEvent, LINE_SLOTS>,
+    ) {
+        while let Ok(event) = lines.recv().await {
             let flash = &mut *cx.local.flash;
             cx.shared.cmd.lock(|c| {
                 let response = c.device.handle(&event, flash);
@@ -433,7 +448,7 @@ mod firmware {
     fn transmit<'a>(
         tx: &mut DmaTx,
         sentences: impl Iterator<Item = &'a Sentence>,
-        replies: &mut Ring<Sentence, REPLY_SLOTS>,
+        replies: &mut Deque<Sentence, REPLY_SLOTS>,
         budget: usize,
     ) {
         let Some(mut batch) = tx.begin() else {
@@ -445,13 +460,13 @@ mod firmware {
                 batch.count_dropped();
             }
         }
-        while let Some(reply) = replies.peek() {
+        while let Some(reply) = replies.front() {
             let part = reply.as_bytes();
             let fits = batch.is_empty() || batch.len() + part.len() <= budget;
             if !fits || !batch.push(part) {
                 break;
             }
-            replies.pop();
+            replies.pop_front();
         }
         batch.start();
     }
@@ -578,8 +593,10 @@ mod firmware {
                     c.device.set_board(board);
                     if cycle == 0 {
                         // The boot's self-test report, as `SELFTEST` replies.
-                        c.replies
-                            .push(inemo_ahrs::command::selftest_reply("SELFTEST", &board).finish());
+                        c.record(
+                            Some(inemo_ahrs::command::selftest_reply("SELFTEST", &board).finish()),
+                            None,
+                        );
                     }
                     let mut out = c.device.on_cycle(&inputs, &sample);
                     c.record(out.reply.take(), out.action.take());
@@ -590,10 +607,6 @@ mod firmware {
                     }
                 });
                 cx.shared.health.lock(|h| h.record(step.status));
-                // A line the command task missed (it was ending when the line came).
-                if cx.shared.rx.lock(|rx| !rx.lines.is_empty()) {
-                    let _ = command::spawn();
-                }
                 step
             };
 
@@ -610,8 +623,8 @@ mod firmware {
             if cycle % stats_every == 0 {
                 {
                     let (rx_errors, lines_dropped) =
-                        cx.shared.rx.lock(|rx| (rx.errors, rx.lines.dropped));
-                    let replies_dropped = cx.shared.cmd.lock(|c| c.replies.dropped);
+                        cx.shared.rx.lock(|rx| (rx.errors, rx.dropped));
+                    let replies_dropped = cx.shared.cmd.lock(|c| c.replies_dropped);
                     defmt::info!(
                         "commands: rx errors {=u32}, lines dropped {=u32}, replies dropped {=u32}",
                         rx_errors,
