@@ -199,7 +199,7 @@ impl<'f, F: Flash> SerialFirmware<'f, F> {
 pub fn operator_pose(event: &LineEvent) -> Option<Option<Vec3>> {
     let LineEvent::Line(line) = event else { return None };
     let body = nmea::verify(line.as_bytes()).ok()?;
-    let mut f = body.split(',');
+    let mut f = body.split(nmea::is_comma);
     if !f.next().is_some_and(|a| a.eq_ignore_ascii_case("PINAC")) {
         return None;
     }

@@ -316,7 +316,7 @@ impl Device {
         };
         let mut fields = [""; MAX_FIELDS];
         let mut n = 0;
-        for f in body.split(',') {
+        for f in body.split(nmea::is_comma) {
             if let Some(slot) = fields.get_mut(n) {
                 *slot = f;
             }

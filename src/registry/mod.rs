@@ -420,12 +420,16 @@ impl Setting {
         let mut tmp = [0u8; 12];
         let n = match (*v, self.kind) {
             (Value::F32(x), Kind::F32) => {
-                tmp[..4].copy_from_slice(&x.to_le_bytes());
+                for (t, b) in tmp.iter_mut().zip(x.to_le_bytes()) {
+                    *t = b;
+                }
                 4
             }
             (Value::Vec3(x), Kind::Vec3) => {
                 for (chunk, c) in tmp.chunks_exact_mut(4).zip(x.iter()) {
-                    chunk.copy_from_slice(&c.to_le_bytes());
+                    for (t, b) in chunk.iter_mut().zip(c.to_le_bytes()) {
+                        *t = b;
+                    }
                 }
                 12
             }
@@ -434,7 +438,9 @@ impl Setting {
                 1
             }
             (Value::U16(x), Kind::U16 | Kind::Talker) => {
-                tmp[..2].copy_from_slice(&x.to_le_bytes());
+                for (t, b) in tmp.iter_mut().zip(x.to_le_bytes()) {
+                    *t = b;
+                }
                 2
             }
             (Value::Axes(m), Kind::Axes) => {
@@ -447,7 +453,10 @@ impl Setting {
         };
         match (out.get_mut(..n), tmp.get(..n)) {
             (Some(dst), Some(src)) => {
-                dst.copy_from_slice(src);
+                // Zips, not `copy_from_slice`: no length check left to panic (no-panic proof).
+                for (d, s) in dst.iter_mut().zip(src) {
+                    *d = *s;
+                }
                 n
             }
             _ => 0,

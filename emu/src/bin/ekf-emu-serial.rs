@@ -170,7 +170,21 @@ mod target {
         }
     }
 
+    /// With the `panic-proof` feature (`scripts/size-report`): the link fails if any panic is
+    /// reachable from the firmware's cycle as this program runs it.
+    #[cfg(feature = "panic-proof")]
+    #[panic_handler]
+    fn panic(_: &core::panic::PanicInfo) -> ! {
+        extern "C" {
+            /// Deliberately undefined: referencing it makes the link fail.
+            fn serial_firmware_cycle_contains_a_reachable_panic() -> !;
+        }
+        // SAFETY: never executed; the link fails if this handler is reachable at all.
+        unsafe { serial_firmware_cycle_contains_a_reachable_panic() }
+    }
+
     /// A panic stops the firmware (the host sees the stream end).
+    #[cfg(not(feature = "panic-proof"))]
     #[panic_handler]
     fn panic(_: &core::panic::PanicInfo) -> ! {
         loop {
