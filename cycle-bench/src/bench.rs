@@ -36,6 +36,8 @@ struct State {
     active: Active,
     /// Next motion sample, `0..MOTION_LEN`.
     cursor: usize,
+    /// FNV-1a digest of every step's full state so far ([`ahrs_bench_digest`]).
+    digest: u32,
 }
 
 /// Single-threaded global: the bench runs on one core with no interrupts touching it.
@@ -44,7 +46,8 @@ pub struct Global<T>(UnsafeCell<T>);
 // core, called from the thread mode of a bare-metal program or from one host thread).
 unsafe impl<T> Sync for Global<T> {}
 
-static STATE: Global<State> = Global(UnsafeCell::new(State { active: Active::None, cursor: 0 }));
+static STATE: Global<State> =
+    Global(UnsafeCell::new(State { active: Active::None, cursor: 0, digest: FNV_OFFSET }));
 
 /// Euler output of the last step, rad: roll, pitch, yaw. Written volatile so that the
 /// conversion is part of every step.
@@ -172,6 +175,7 @@ pub extern "C" fn ahrs_bench_select(id: u32) -> u32 {
     let st = state();
     st.active = Active::None;
     st.cursor = 0;
+    st.digest = FNV_OFFSET;
     let ok = match id {
         0 => {
             let mut f = Ekf::new(s);
@@ -210,6 +214,51 @@ pub extern "C" fn ahrs_bench_select(id: u32) -> u32 {
     } else {
         NOT_INITIALISED
     }
+}
+
+/// FNV-1a (32 bit) offset basis and prime.
+const FNV_OFFSET: u32 = 0x811c_9dc5;
+const FNV_PRIME: u32 = 0x0100_0193;
+
+/// Folds `word`'s four bytes into the FNV-1a digest `h`.
+fn fold(h: u32, word: u32) -> u32 {
+    word.to_le_bytes().iter().fold(h, |h, &b| (h ^ u32::from(b)).wrapping_mul(FNV_PRIME))
+}
+
+/// Folds the bit patterns of `values` into `h`.
+fn fold_f32(h: u32, values: impl IntoIterator<Item = f32>) -> u32 {
+    values.into_iter().fold(h, |h, v| fold(h, v.to_bits()))
+}
+
+/// Folds the selected filter's full state after a step into the running digest and returns
+/// it: `flags` (the step's return value), the attitude quaternion, the gyro bias, the Euler
+/// output and, for the EKF and the unscented filters, every element of the covariance — all as
+/// bit patterns. Called after each step by the host and by `tools/cycles` on the emulated
+/// Cortex-M3 (outside the measured step), so equal final digests mean every step's state was
+/// bit-identical.
+#[no_mangle]
+pub extern "C" fn ahrs_bench_digest(flags: u32) -> u32 {
+    let st = state();
+    let mut h = fold(st.digest, flags);
+    let euler = euler_out();
+    let (q, b) = match &st.active {
+        Active::Ekf(f) => (f.attitude(), f.gyro_bias()),
+        Active::Ukf(f) => (f.attitude(), f.gyro_bias()),
+        Active::SsUkf(f) => (f.attitude(), f.gyro_bias()),
+        Active::Cf(f) => (f.attitude(), f.gyro_bias()),
+        Active::Gyro(f) => (f.attitude(), f.gyro_bias()),
+        Active::None => return st.digest,
+    };
+    h = fold_f32(h, [q.w, q.x, q.y, q.z, b.x, b.y, b.z]);
+    h = fold_f32(h, euler);
+    h = match &st.active {
+        Active::Ekf(f) => fold_f32(h, f.covariance().m.iter().flatten().copied()),
+        Active::Ukf(f) => fold_f32(h, f.covariance().iter().copied()),
+        Active::SsUkf(f) => fold_f32(h, f.covariance().iter().copied()),
+        _ => h,
+    };
+    st.digest = h;
+    h
 }
 
 /// The default EKF, initialised on the trace's still part (`ahrs_bench_select(0)`).

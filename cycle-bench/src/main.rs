@@ -32,6 +32,22 @@ mod calibration;
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     if let [cmd, id, steps] = args.as_slice() {
+        if cmd == "digest" {
+            let (Ok(id), Ok(steps)) = (id.parse::<u32>(), steps.parse::<usize>()) else {
+                eprintln!("usage: cycle-bench [euler|digest FILTER STEPS]");
+                std::process::exit(2);
+            };
+            if bench::ahrs_bench_select(id) != 0 {
+                eprintln!("cycle-bench: filter {id} did not initialise");
+                std::process::exit(1);
+            }
+            let mut d = 0;
+            for _ in 0..steps {
+                d = bench::ahrs_bench_digest(bench::ahrs_bench_step());
+            }
+            println!("{d:08x}");
+            return;
+        }
         if cmd == "euler" {
             let (Ok(id), Ok(steps)) = (id.parse::<u32>(), steps.parse::<usize>()) else {
                 eprintln!("usage: cycle-bench [euler FILTER STEPS]");
@@ -104,13 +120,14 @@ mod target {
         let init: extern "C" fn() = black_box(bench::ahrs_bench_init);
         let select: extern "C" fn(u32) -> u32 = black_box(bench::ahrs_bench_select);
         let step: extern "C" fn() -> u32 = black_box(bench::ahrs_bench_step);
+        let digest: extern "C" fn(u32) -> u32 = black_box(bench::ahrs_bench_digest);
         black_box(&bench::AHRS_BENCH_SOFTFLOAT);
         init();
         loop {
             for id in 0..bench::FILTERS.len() as u32 {
                 black_box(select(black_box(id)));
                 for _ in 0..bench::MOTION_LEN {
-                    black_box(step());
+                    black_box(digest(step()));
                 }
                 black_box(steps[id as usize]());
             }

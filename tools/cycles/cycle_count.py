@@ -11,7 +11,9 @@ inclusive). Prints cycles at 0 and 2 wait states, the stack high-water of one st
 of the code reachable from the filter's step, and where the EKF's cycles go.
 `--check` fails (exit 1) when the EKF's mean cycles at 2 wait states exceed the committed
 baseline by more than 5 %. `--host-compare` checks that the emulated estimates are
-bit-identical to the host build's (`cargo run -p cycle-bench -- euler ID STEPS`).
+bit-identical to the host build's: the final Euler output (`cargo run -p cycle-bench -- euler ID
+STEPS`) and a digest of every step's full state — flags, quaternion, bias, Euler output and
+covariance as bit patterns (`ahrs_bench_digest`; `cargo run -p cycle-bench -- digest ID STEPS`).
 """
 
 from __future__ import annotations
@@ -68,6 +70,9 @@ def measure(m: m3model.Machine, name: str, steps: int, attribute: bool,
         cyc0.append(c.core)
         cyc2.append(c.cycles)
         instr.append(c.instructions)
+        # The step's full state into the running digest (not measured; a few hundred bytes of
+        # stack at most, below every step's own).
+        digest = m.call("ahrs_bench_digest", run.result).result
     stack = m.stack_used()
     euler_addr = m.elf.addr_of("AHRS_BENCH_EULER")
     euler = [m.read_u32(euler_addr + 4 * i) for i in range(3)]
@@ -92,6 +97,7 @@ def measure(m: m3model.Machine, name: str, steps: int, attribute: bool,
         "flash_by_category": flash,
         "functions_reachable": len(funcs),
         "euler_bits": [f"{x:08x}" for x in euler],
+        "state_digest": f"{digest:08x}",
     }
     if lines:
         by_line: dict = {}
@@ -121,6 +127,16 @@ def measure(m: m3model.Machine, name: str, steps: int, attribute: bool,
             cats[c] = cats.get(c, 0) + v[2]
         out["cycles_2ws_by_category"] = {k: v / steps for k, v in cats.items()}
     return out
+
+
+def host_digest(fid: int, steps: int) -> str:
+    """The host build's digest of every step's full state (`ahrs_bench_digest`: flags,
+    quaternion, bias, Euler output, covariance, as bit patterns)."""
+    exe = os.path.join(ROOT, "target", "debug", "cycle-bench")
+    cmd = [exe] if os.path.exists(exe) else ["cargo", "run", "-q", "-p", "cycle-bench", "--"]
+    p = subprocess.run(cmd + ["digest", str(fid), str(steps)], cwd=ROOT, capture_output=True,
+                       text=True, check=True)
+    return p.stdout.strip()
 
 
 def host_euler(fid: int, steps: int) -> list[str]:
@@ -226,6 +242,12 @@ def main(argv=None) -> int:
             same = host == r["euler_bits"]
             print(f"host vs emulated estimate after {r['steps']} {name} steps: "
                   f"{'identical' if same else 'DIFFERENT'} ({' '.join(host)})")
+            ok &= same
+            host_d = host_digest(FILTERS.index(name), r["steps"])
+            same = host_d == r["state_digest"]
+            print(f"host vs emulated full state of every one of the {r['steps']} {name} steps "
+                  f"(flags, quaternion, bias, Euler, covariance; bit patterns): "
+                  f"{'identical' if same else 'DIFFERENT'} (digest {host_d})")
             ok &= same
     if a.json:
         with open(a.json, "w") as f:
