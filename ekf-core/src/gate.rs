@@ -222,4 +222,65 @@ mod tests {
         }
         assert!(flags.contains(Flags::ACCEL_REJECT_LONG | Flags::ACCEL_GATED));
     }
+
+    /// A jump along any single axis is a knock (the skip of the squares, when every axis moved
+    /// less than half the limit, must not hide one axis's jump behind the others' stillness).
+    #[test]
+    fn a_jump_along_any_one_axis_is_a_knock() {
+        for axis in 0..3 {
+            let mut g = AccelGate::new(GateSettings::default());
+            let base = Vec3::new(0.0, 0.0, -1.0);
+            assert!(matches!(g.pre_check(DT, base, 1.0, 0.0), PreCheck::Pass { .. }));
+            let mut d = [0.0; 3];
+            d[axis] = 0.2; // four times the 0.05 g jump limit
+            let a = base + Vec3::from_array(d);
+            match g.pre_check(DT, a, 1.0, 0.0) {
+                PreCheck::Reject(f) => assert!(f.contains(Flags::ACCEL_KNOCK), "axis {axis}"),
+                p => panic!("axis {axis}: {p:?}"),
+            }
+        }
+    }
+
+    /// The motion allowance widens the jump limit to `√(jump_g² + allowance)`: a 0.1 g change
+    /// is a knock still, and passes with an allowance of 0.01 g² (limit 0.112 g) — the EKF's
+    /// swinging pendulum is motion, not knocks.
+    #[test]
+    fn the_motion_allowance_widens_the_jump_limit() {
+        let change = Vec3::new(0.1, 0.0, -1.0);
+        for (allowance, knock) in [(0.0, true), (0.01, false), (0.005, true)] {
+            let mut g = AccelGate::new(GateSettings::default());
+            assert!(matches!(
+                g.pre_check(DT, Vec3::new(0.0, 0.0, -1.0), 1.0, 0.0),
+                PreCheck::Pass { .. }
+            ));
+            let r = g.pre_check(DT, change, 1.0, allowance);
+            assert_eq!(matches!(r, PreCheck::Reject(_)), knock, "allowance {allowance}: {r:?}");
+        }
+    }
+
+    /// `rejected_for` counts the seconds of continuous rejection (the EKF raises its motion
+    /// level from rejected samples only after `KNOCK_MAX_S` of them) and an accepted sample
+    /// ends it; `reset` forgets the previous sample, so the first sample after it is no jump.
+    #[test]
+    fn rejection_time_and_reset() {
+        let mut g = AccelGate::new(GateSettings::default());
+        assert!(matches!(
+            g.pre_check(DT, Vec3::new(0.0, 0.0, -1.0), 1.0, 0.0),
+            PreCheck::Pass { .. }
+        ));
+        for k in 1..=5 {
+            // Alternating 0.3 g taps: every one a knock.
+            let a = Vec3::new(if k % 2 == 1 { 0.3 } else { -0.3 }, 0.0, -0.95);
+            assert!(matches!(g.pre_check(DT, a, 1.0, 0.0), PreCheck::Reject(_)));
+            assert!((g.rejected_for() - k as f32 * DT).abs() < 1e-6, "{}", g.rejected_for());
+        }
+        g.accepted();
+        assert_eq!(g.rejected_for(), 0.0);
+        // After a reset a sample far from the last one is not a jump.
+        g.reset();
+        assert!(matches!(
+            g.pre_check(DT, Vec3::new(0.5, 0.0, -0.866), 1.0, 0.0),
+            PreCheck::Pass { .. }
+        ));
+    }
 }
