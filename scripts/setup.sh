@@ -56,3 +56,9 @@ if ! python3 -c 'import ensurepip, venv' >/dev/null 2>&1; then
   apt_install python3-venv
 fi
 "$root/scripts/marine-clients"
+
+# The fuzz targets (scripts/fuzz) link libFuzzer, which libfuzzer-sys compiles from C++.
+if ! command -v c++ >/dev/null 2>&1; then
+  log "installing g++ (libFuzzer for scripts/fuzz)"
+  apt_install g++
+fi
