@@ -4,53 +4,12 @@
 use std::{
     io::{BufRead, BufReader, Write},
     net::{TcpListener, TcpStream, UdpSocket},
-    process::{Child, Command, Output, Stdio},
+    process::{Child, Command, Stdio},
     time::{Duration, Instant},
 };
 
 mod common;
-use common::{stdout, BIN};
-
-/// A running emulator; killed on drop (also when a test fails).
-struct Emulator {
-    child: Child,
-    port: String,
-}
-
-impl Emulator {
-    fn start(extra: &[&str]) -> Emulator {
-        let mut child = Command::new(BIN)
-            .args(["emulate", "--pty", "--speed", "10"])
-            .args(extra)
-            .stdout(Stdio::piped())
-            .stderr(Stdio::null())
-            .spawn()
-            .expect("spawn emulator");
-        let mut line = String::new();
-        let stdout = child.stdout.take().expect("stdout");
-        let read = BufReader::new(stdout).read_line(&mut line);
-        let port = line.trim().to_string();
-        let mut emu = Emulator { child, port };
-        if read.is_err() || emu.port.is_empty() {
-            let _ = emu.child.kill();
-            panic!("emulator printed no port");
-        }
-        emu
-    }
-
-    fn tool(&self, args: &[&str]) -> Output {
-        let mut a = vec![args[0], self.port.as_str()];
-        a.extend_from_slice(&args[1..]);
-        Command::new(BIN).args(&a).output().expect("run ahrs-tool")
-    }
-}
-
-impl Drop for Emulator {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
-}
+use common::{stdout, Emulator, BIN};
 
 #[test]
 fn send_ver_bad_command_and_setting_round_trip() {
@@ -89,8 +48,7 @@ fn send_ver_bad_command_and_setting_round_trip() {
 fn send_times_out_without_a_device() {
     // A pty nobody answers on: the emulator's, with the emulator stopped.
     let mut emu = Emulator::start(&[]);
-    let _ = emu.child.kill();
-    let _ = emu.child.wait();
+    emu.stop();
     let o = emu.tool(&["send", "VER", "--timeout", "0.3"]);
     assert_eq!(o.status.code(), Some(2));
 }

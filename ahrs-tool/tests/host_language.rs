@@ -4,49 +4,17 @@
 
 use std::{
     io::{BufRead, BufReader, Read},
-    process::{Child, Command, Output, Stdio},
+    process::{Command, Output, Stdio},
 };
 
 use host_tests::config::ReplayConfig;
 use host_tests::settings::{device_form, read_settings_file, ReplaySettings, TraceMeta};
 use inemo_ahrs::registry::SETTINGS;
 
-const BIN: &str = env!("CARGO_BIN_EXE_ahrs-tool");
-
-/// A running emulator; killed on drop (also when a test fails).
-struct Emulator {
-    child: Child,
-    port: String,
-}
+mod common;
+use common::{Emulator, BIN};
 
 impl Emulator {
-    fn start(extra: &[&str]) -> Emulator {
-        let mut child = Command::new(BIN)
-            .args(["emulate", "--pty", "--speed", "10"])
-            .args(extra)
-            .stdout(Stdio::piped())
-            .stderr(Stdio::null())
-            .spawn()
-            .expect("spawn emulator");
-        let mut line = String::new();
-        let stdout = child.stdout.take().expect("stdout");
-        let read = BufReader::new(stdout).read_line(&mut line);
-        let port = line.trim().to_string();
-        let mut emu = Emulator { child, port };
-        if read.is_err() || emu.port.is_empty() {
-            let _ = emu.child.kill();
-            panic!("emulator printed no port");
-        }
-        emu
-    }
-
-    /// `ahrs-tool <args[0]> <port> <args[1..]>`.
-    fn tool(&self, args: &[&str]) -> Output {
-        let mut a = vec![args[0], self.port.as_str()];
-        a.extend_from_slice(&args[1..]);
-        Command::new(BIN).args(&a).output().expect("run ahrs-tool")
-    }
-
     /// `ahrs-tool settings <action> <port> <rest>`.
     fn settings(&self, action: &str, rest: &[&str]) -> Output {
         Command::new(BIN)
@@ -64,13 +32,6 @@ impl Emulator {
         let out = String::from_utf8_lossy(&o.stdout).into_owned();
         assert_eq!(o.status.code(), Some(0), "{words:?}: {out}");
         out
-    }
-}
-
-impl Drop for Emulator {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
     }
 }
 

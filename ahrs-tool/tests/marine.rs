@@ -11,44 +11,17 @@
 //! `AHRS_MARINE_REQUIRED` is set (as `scripts/test-all` does): then it fails.
 
 use std::{
-    io::{BufRead, BufReader},
-    process::{Child, Command, Stdio},
+    process::Command,
     time::{Duration, Instant},
 };
 
-// `calibrate` is for the other end-to-end tests.
-#[allow(dead_code)]
 mod common;
 use common::clients::{
     angle_diff, capture, check_agreement, clients_or_skip, kind, outputs, parse, sk,
 };
-use common::{stdout, BIN};
-
-/// A running emulator; killed on drop.
-struct Emulator {
-    child: Child,
-    port: String,
-}
+use common::{stdout, Emulator, BIN};
 
 impl Emulator {
-    fn start(args: &[&str]) -> Emulator {
-        let mut child = Command::new(BIN)
-            .args(["emulate", "--pty", "--speed", "10"])
-            .args(args)
-            .stdout(Stdio::piped())
-            .stderr(Stdio::null())
-            .spawn()
-            .expect("spawn emulator");
-        let mut line = String::new();
-        let read = BufReader::new(child.stdout.take().expect("stdout")).read_line(&mut line);
-        let mut emu = Emulator { child, port: line.trim().to_string() };
-        if read.is_err() || emu.port.is_empty() {
-            let _ = emu.child.kill();
-            panic!("emulator printed no port");
-        }
-        emu
-    }
-
     /// `ahrs-tool send`: the reply, which must be OK.
     fn send(&self, command: &str) -> String {
         let o = Command::new(BIN).args(["send", &self.port, command]).output().expect("send");
@@ -60,13 +33,6 @@ impl Emulator {
     /// The complete lines the device sends during `seconds` (wall clock).
     fn capture(&self, seconds: f64) -> Vec<String> {
         capture(&self.port, seconds)
-    }
-}
-
-impl Drop for Emulator {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
     }
 }
 

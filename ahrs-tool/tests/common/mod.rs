@@ -1,14 +1,65 @@
-//! What the end-to-end tests share: the tool's binary and its six-position calibration run.
+//! What the end-to-end tests share: the tool's binary, the emulated device behind a
+//! pseudo-terminal, and the six-position calibration run. (Each test file uses part of it.)
+#![allow(dead_code)]
 
 pub mod clients;
 
 use std::{
-    io::Write,
-    process::{Command, Output, Stdio},
+    io::{BufRead, BufReader, Write},
+    process::{Child, Command, Output, Stdio},
 };
 
 /// The `ahrs-tool` binary under test.
 pub const BIN: &str = env!("CARGO_BIN_EXE_ahrs-tool");
+
+/// A running emulator (`ahrs-tool emulate --pty --speed 10` and `extra`); killed on drop (also
+/// when a test fails).
+pub struct Emulator {
+    child: Child,
+    /// Its pseudo-terminal.
+    pub port: String,
+}
+
+impl Emulator {
+    /// Start it and wait for the port it prints.
+    pub fn start(extra: &[&str]) -> Emulator {
+        let mut child = Command::new(BIN)
+            .args(["emulate", "--pty", "--speed", "10"])
+            .args(extra)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("spawn emulator");
+        let mut line = String::new();
+        let read = BufReader::new(child.stdout.take().expect("stdout")).read_line(&mut line);
+        let mut emu = Emulator { child, port: line.trim().to_string() };
+        if read.is_err() || emu.port.is_empty() {
+            let _ = emu.child.kill();
+            panic!("emulator printed no port");
+        }
+        emu
+    }
+
+    /// Stop the emulated device (its pseudo-terminal then has nobody answering).
+    pub fn stop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+
+    /// `ahrs-tool <args[0]> <port> <args[1..]>`.
+    pub fn tool(&self, args: &[&str]) -> Output {
+        let mut a = vec![args[0], self.port.as_str()];
+        a.extend_from_slice(&args[1..]);
+        Command::new(BIN).args(&a).output().expect("run ahrs-tool")
+    }
+}
+
+impl Drop for Emulator {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
 
 /// Standard output as text.
 pub fn stdout(o: &Output) -> String {
