@@ -16,6 +16,7 @@ pub mod config;
 pub mod lenient;
 pub mod output;
 pub mod plot;
+pub mod progress;
 pub mod real;
 pub mod replay;
 pub mod rng;
