@@ -355,9 +355,33 @@ impl Figure {
     }
 }
 
-/// Read a trace and its estimate file together, row by row, into a [`Figure`]. The trace is
-/// parsed on a second thread. Rows are matched by index and must have the same times. Messages
-/// name `trace_name` and `est_name`.
+/// Rows handed from a reading thread to the figure, in chunks.
+const CHUNK: usize = 4096;
+
+type Chunks<T> = std::sync::mpsc::Receiver<Result<Vec<T>, String>>;
+/// A trace row for the figure: time, truth Euler angles (deg).
+type TraceItem = (f64, Option<[f64; 3]>);
+/// An estimate row for the figure: time, Euler angles (deg).
+type EstItem = (f64, [f64; 3]);
+
+/// The next item of a chunked stream: `Ok(None)` at its end (the sender gone).
+fn pull<T>(rx: &Chunks<T>, cur: &mut std::vec::IntoIter<T>) -> Result<Option<T>, String> {
+    loop {
+        if let Some(x) = cur.next() {
+            return Ok(Some(x));
+        }
+        match rx.recv() {
+            Ok(Ok(v)) => *cur = v.into_iter(),
+            Ok(Err(e)) => return Err(e),
+            Err(_) => return Ok(None),
+        }
+    }
+}
+
+/// Read a trace and its estimate file together, row by row, into a [`Figure`]. Each file is
+/// parsed on a thread of its own (the trace's also draws up the truth series); this one fills
+/// the estimate and error series. Rows are matched by index and must have the same times.
+/// Messages name `trace_name` and `est_name`.
 pub fn read_figure<A, B>(
     trace: A,
     est: B,
@@ -366,7 +390,7 @@ pub fn read_figure<A, B>(
 ) -> Result<Figure, String>
 where
     A: BufRead + Send,
-    B: BufRead,
+    B: BufRead + Send,
 {
     let terr = |e: TraceError| format!("{trace_name}: {e}");
     let eerr = |e: TraceError| format!("{est_name}: {e}");
@@ -386,20 +410,19 @@ where
         let t = rec.f64(ti)?;
         Ok(Some((t, [rec.f32(ri)?, rec.f32(pi)?, rec.f32(yi)?].map(f64::from))))
     };
-    type Chunk = Vec<(f64, Option<[f64; 3]>)>;
-    let (tx, rx) = std::sync::mpsc::sync_channel::<Result<Chunk, String>>(4);
+    let (tx, rx) = std::sync::mpsc::sync_channel(4);
+    let (etx, erx) = std::sync::mpsc::sync_channel(4);
     let mut fig = Figure::default();
     std::thread::scope(|s| -> Result<(), String> {
-        // Owned here: an early return drops it, which ends the trace's thread (its send fails)
-        // before the scope waits for it.
-        let rx = rx;
-        // The trace's thread parses it and draws up the truth series (the estimate's thread,
-        // this one, the estimate and the error).
+        // Owned here: an early return drops them, which ends the reading threads (their sends
+        // fail) before the scope waits for them.
+        let rx: Chunks<TraceItem> = rx;
+        let erx: Chunks<EstItem> = erx;
         let truth_thread = s.spawn(move || {
             let d = || Decimator::new(COLUMNS, true);
             let mut truth = [d(), d(), d()];
             let mut truth_rows = 0u64;
-            let mut chunk = Vec::with_capacity(4096);
+            let mut chunk = Vec::with_capacity(CHUNK);
             loop {
                 match trace.next_row() {
                     Ok(Some(r)) => {
@@ -421,39 +444,68 @@ where
                         return (truth, truth_rows);
                     }
                 }
-                if chunk.len() == 4096
-                    && tx.send(Ok(std::mem::replace(&mut chunk, Vec::with_capacity(4096)))).is_err()
+                if chunk.len() == CHUNK
+                    && tx
+                        .send(Ok(std::mem::replace(&mut chunk, Vec::with_capacity(CHUNK))))
+                        .is_err()
                 {
                     return (truth, truth_rows);
                 }
             }
         });
-        let mut trace_rows = 0u64;
-        let mut est_rows = 0u64;
-        let mut est_done = false;
-        for chunk in rx.iter() {
-            let chunk = chunk?;
-            for (t, truth) in chunk {
-                trace_rows += 1;
-                let Some((et, euler)) = (if est_done { None } else { next_est().map_err(eerr)? })
-                else {
-                    est_done = true;
-                    continue;
-                };
-                est_rows += 1;
-                if (t - et).abs() > 1e-6 * (1.0 + t.abs()) {
-                    return Err(format!(
-                        "row {trace_rows}: the estimate's time {} differs from the trace's {t} \
-                         (one estimate row per trace row, from `replay`)",
-                        et
-                    ));
+        s.spawn(move || {
+            let mut chunk = Vec::with_capacity(CHUNK);
+            loop {
+                match next_est() {
+                    Ok(Some(r)) => chunk.push(r),
+                    Ok(None) => {
+                        let _ = etx.send(Ok(chunk));
+                        return;
+                    }
+                    Err(e) => {
+                        let _ = etx.send(Err(eerr(e)));
+                        return;
+                    }
                 }
-                fig.add_estimate(t, euler, truth);
+                if chunk.len() == CHUNK
+                    && etx
+                        .send(Ok(std::mem::replace(&mut chunk, Vec::with_capacity(CHUNK))))
+                        .is_err()
+                {
+                    return;
+                }
             }
-        }
-        if !est_done {
-            while next_est().map_err(eerr)?.is_some() {
-                est_rows += 1;
+        });
+        let (mut tcur, mut ecur) = (Vec::new().into_iter(), Vec::new().into_iter());
+        let (mut trace_rows, mut est_rows) = (0u64, 0u64);
+        loop {
+            match (pull(&rx, &mut tcur)?, pull(&erx, &mut ecur)?) {
+                (Some((t, truth)), Some((et, euler))) => {
+                    trace_rows += 1;
+                    est_rows += 1;
+                    if (t - et).abs() > 1e-6 * (1.0 + t.abs()) {
+                        return Err(format!(
+                            "row {trace_rows}: the estimate's time {et} differs from the \
+                             trace's {t} (one estimate row per trace row, from `replay`)"
+                        ));
+                    }
+                    fig.add_estimate(t, euler, truth);
+                }
+                (Some(_), None) => {
+                    trace_rows += 1;
+                    while pull(&rx, &mut tcur)?.is_some() {
+                        trace_rows += 1;
+                    }
+                    break;
+                }
+                (None, Some(_)) => {
+                    est_rows += 1;
+                    while pull(&erx, &mut ecur)?.is_some() {
+                        est_rows += 1;
+                    }
+                    break;
+                }
+                (None, None) => break,
             }
         }
         if est_rows != trace_rows {
