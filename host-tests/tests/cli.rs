@@ -713,3 +713,46 @@ fn replay_shows_no_progress_when_stderr_is_not_a_terminal() {
     assert!(!err.contains('\u{1b}') && !err.contains('\r'), "{err:?}");
     assert!(!err.contains("replay ["), "{err}");
 }
+
+/// On a terminal (a pseudo-terminal from util-linux `script`), a replay still reading after
+/// 1 s shows progress on stderr. The trace comes through a FIFO, written in two halves 1.5 s
+/// apart, so the replay is long without a large file (its size unknown: a spinner and the
+/// bytes read).
+#[cfg(target_os = "linux")]
+#[test]
+fn replay_shows_progress_on_a_terminal() {
+    use std::io::Write as _;
+    let have = |cmd: &str| Command::new("sh").args(["-c", &format!("command -v {cmd}")]).output();
+    if !have("script").is_ok_and(|o| o.status.success())
+        || !have("mkfifo").is_ok_and(|o| o.status.success())
+    {
+        eprintln!("SKIPPED: needs util-linux script and mkfifo");
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let trace = simulate(dir.path(), "pitch-sine", "60");
+    let text = std::fs::read(&trace).unwrap();
+    let fifo = dir.path().join("trace.fifo");
+    assert!(Command::new("mkfifo").arg(&fifo).status().unwrap().success());
+    let est = dir.path().join("est.csv");
+    let cmd = format!("'{BIN}' replay '{}' --out '{}'", p(&fifo), p(&est));
+    let child = Command::new("script")
+        .args(["-qec", &cmd, "/dev/null"])
+        .stdin(std::process::Stdio::null())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut w = std::fs::OpenOptions::new().write(true).open(&fifo).unwrap();
+    let half = text.len() / 2;
+    w.write_all(&text[..half]).unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(1500));
+    w.write_all(&text[half..]).unwrap();
+    drop(w);
+    let o = child.wait_with_output().unwrap();
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{out}");
+    assert!(out.contains("replay: 3000 rows"), "{out}");
+    // The bar's line: drawn and cleared with escape codes, with the bytes read.
+    assert!(out.contains('\u{1b}') && out.contains(" KiB"), "{out:?}");
+}
