@@ -1,6 +1,6 @@
 //! Host tools for `ekf-core`: the iNEMO V2 sensor simulator ([`sim`]), the trace CSV format
 //! ([`trace`], `shared/trace-format.md`), trace replay through the estimators with RMSE
-//! ([`replay`], [`config`], set in the device's settings language: [`settings`]) and plots ([`plot`]). The `host-tests` binary exposes them as the
+//! ([`replay`], [`config`], set in the device's settings language: [`settings`]), plots ([`plot`]) and progress on a terminal ([`progress`]). The `host-tests` binary exposes them as the
 //! `simulate`, `replay` and `plot` commands; [`accuracy`] is the evaluation behind the
 //! accuracy benchmark and its regression tests (`docs/accuracy.md`).
 //!
@@ -16,6 +16,7 @@ pub mod config;
 pub mod lenient;
 pub mod output;
 pub mod plot;
+pub mod progress;
 pub mod real;
 pub mod replay;
 pub mod rng;

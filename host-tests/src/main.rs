@@ -12,15 +12,14 @@ use ekf_core::{Flags, Vec3};
 use host_tests::config::ReplayConfig;
 use host_tests::lenient::{SkipBadRows, Skipped};
 use host_tests::output::{produce_atomically, refuse_overwriting_inputs, write_atomically};
+use host_tests::progress::{CountingReader, Progress};
 use host_tests::real::AttitudeScore;
 use host_tests::replay::{replay_serial_with, replay_with, FilterKind, ReplayError};
 use host_tests::settings::{
     device_form, parse_assignment, read_settings_file, ReplaySettings, TraceMeta,
 };
 use host_tests::sim::{Scenario, SimOptions};
-use host_tests::trace::{
-    read_estimate_file, read_trace_file, EstimateRow, TraceReader, TraceRow, TraceWriter,
-};
+use host_tests::trace::{EstimateRow, TraceReader, TraceRow, TraceWriter};
 
 /// The summary goes to stderr when the output file is stdout (`--out -`).
 static SUMMARY_TO_STDERR: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
@@ -114,13 +113,14 @@ enum Cmd {
         #[arg(long)]
         skip_bad_rows: bool,
     },
-    /// Plot truth vs estimate and the error per axis to a PNG.
+    /// Plot the estimate (over the truth, and the error, when the trace has truth) per axis to
+    /// a PNG or an SVG, by the output's extension.
     Plot {
-        /// Input trace CSV (with truth).
+        /// Input trace CSV (truth columns optional).
         trace: PathBuf,
         /// Estimate CSV from `replay`.
         est: PathBuf,
-        /// Output PNG.
+        /// Output image: `.png` or `.svg`.
         #[arg(long)]
         out: PathBuf,
     },
@@ -273,6 +273,10 @@ fn run_replay(
     let foreign = o.foreign;
     refuse_overwriting_inputs(out, &[trace]).map_err(|e| e.to_string())?;
     let file = std::fs::File::open(trace).map_err(|e| format!("{}: {e}", trace.display()))?;
+    // Progress by the bytes read, on a terminal only (`host_tests::progress`).
+    let total = file.metadata().ok().filter(|m| m.is_file()).map(|m| m.len());
+    let file = CountingReader::new(file);
+    let progress = Progress::start("replay", total, file.counter());
     let reader = TraceReader::new(BufReader::with_capacity(1 << 16, file))
         .map_err(|e| format!("{}: {e}", trace.display()))?;
     let has_truth = reader.columns().truth;
@@ -318,6 +322,7 @@ fn run_replay(
         ReplayError::Trace(e) => format!("{}: {e}", trace.display()),
         ReplayError::Io(e) => format!("{}: {e}", out.display()),
     })?;
+    progress.finish();
     for n in &notes {
         eprintln!("replay: {n}");
     }
@@ -401,17 +406,41 @@ impl FlagSummary {
 }
 
 fn run_plot(trace: &Path, est: &Path, out: &Path) -> Result<(), String> {
+    use host_tests::plot::{read_figure, render_png, render_svg, Format};
+    let format = Format::of(out)?;
     refuse_overwriting_inputs(out, &[trace, est]).map_err(|e| e.to_string())?;
-    let (_, rows) = read_trace_file(trace).map_err(|e| format!("{}: {e}", trace.display()))?;
-    let est_rows = read_estimate_file(est).map_err(|e| format!("{}: {e}", est.display()))?;
-    produce_atomically(out, |tmp| -> Result<(), PlotErr> {
-        host_tests::plot::plot(&rows, &est_rows, tmp).map_err(PlotErr::Msg)
-    })
+    let open = |p: &Path| {
+        std::fs::File::open(p)
+            .map(|f| BufReader::with_capacity(1 << 16, f))
+            .map_err(|e| format!("{}: {e}", p.display()))
+    };
+    let fig = read_figure(
+        open(trace)?,
+        open(est)?,
+        &trace.display().to_string(),
+        &est.display().to_string(),
+    )?;
+    match format {
+        Format::Png => produce_atomically(out, |tmp| -> Result<(), PlotErr> {
+            render_png(&fig, tmp).map_err(PlotErr::Msg)
+        }),
+        Format::Svg => {
+            let svg = render_svg(&fig)?;
+            write_atomically(out, |w| -> Result<(), PlotErr> {
+                use std::io::Write as _;
+                w.write_all(svg.as_bytes())?;
+                Ok(())
+            })
+        }
+    }
     .map_err(|e| match e {
         PlotErr::Msg(m) => m,
         PlotErr::Io(e) => format!("{}: {e}", out.display()),
     })?;
-    say!("plot: {} rows -> {}", rows.len(), out.display());
+    if !fig.has_truth() {
+        eprintln!("plot: the trace has no truth columns: the estimate alone, without error panels");
+    }
+    say!("plot: {} rows -> {}", fig.rows(), out.display());
     Ok(())
 }
 

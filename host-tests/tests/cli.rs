@@ -287,6 +287,65 @@ fn plot_writes_a_png_with_and_without_fonts() {
     assert!(!png.exists());
 }
 
+/// Stroke colours of the figure's series (`src/plot.rs`): truth, estimate, error.
+const TRUTH_STROKE: &str = "stroke=\"#96B9EB\"";
+const ESTIMATE_STROKE: &str = "stroke=\"#961414\"";
+const ERROR_STROKE: &str = "stroke=\"#14288C\"";
+
+#[test]
+fn plot_writes_svg_by_extension_and_leaves_out_error_panels_without_truth() {
+    let dir = tempfile::tempdir().unwrap();
+    let trace = simulate(dir.path(), "yaw-sine", "20");
+    let est = dir.path().join("est.csv");
+    let o = run(&["replay", p(&trace), "--out", p(&est)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let svg = dir.path().join("fig.svg");
+    let o = run(&["plot", p(&trace), p(&est), "--out", p(&svg)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = std::fs::read_to_string(&svg).unwrap();
+    assert!(text.starts_with("<svg"), "{}", &text[..text.len().min(200)]);
+    assert!(text.trim_end().ends_with("</svg>"));
+    for stroke in [TRUTH_STROKE, ESTIMATE_STROKE, ERROR_STROKE] {
+        assert!(text.contains(stroke), "{stroke}");
+    }
+    // The truth (wide) is drawn before, i.e. under, the estimate (thin).
+    let first = |s: &str| text.find(&format!("<polyline fill=\"none\" opacity=\"1\" {s}"));
+    assert!(first(TRUTH_STROKE).unwrap() < first(ESTIMATE_STROKE).unwrap());
+
+    // Without truth columns: the estimate only, no error panels, no truth legend.
+    let notruth = dir.path().join("notruth.csv");
+    let kept: Vec<String> = std::fs::read_to_string(&trace)
+        .unwrap()
+        .lines()
+        .map(|l| {
+            if l.starts_with('#') {
+                l.to_string()
+            } else {
+                l.split(',').take(7).collect::<Vec<_>>().join(",")
+            }
+        })
+        .collect();
+    std::fs::write(&notruth, kept.join("\n") + "\n").unwrap();
+    let est2 = dir.path().join("est2.csv");
+    let o = run(&["replay", p(&notruth), "--out", p(&est2)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let svg2 = dir.path().join("fig2.svg");
+    let o = run(&["plot", p(&notruth), p(&est2), "--out", p(&svg2)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("no truth"), "{}", stderr(&o));
+    let text = std::fs::read_to_string(&svg2).unwrap();
+    assert!(text.starts_with("<svg"));
+    assert!(text.contains(ESTIMATE_STROKE));
+    assert!(!text.contains(TRUTH_STROKE) && !text.contains(ERROR_STROKE));
+    assert!(!text.contains("error (deg)") && !text.contains(">truth<"));
+    // An unknown extension: refused before anything is written.
+    let bad = dir.path().join("fig.jpg");
+    let o = run(&["plot", p(&notruth), p(&est2), "--out", p(&bad)]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains(".png or .svg"), "{}", stderr(&o));
+    assert!(!bad.exists());
+}
+
 #[test]
 fn simulate_is_deterministic_per_seed() {
     let dir = tempfile::tempdir().unwrap();
@@ -639,4 +698,61 @@ fn the_documented_try_it_on_a_recorded_dive_commands_work() {
         stderr(&file)
     );
     assert_eq!(read("before.csv"), read("file.csv"));
+}
+
+#[test]
+fn replay_shows_no_progress_when_stderr_is_not_a_terminal() {
+    // Long enough to pass the progress threshold (`host_tests::progress::SHOW_AFTER`) on a
+    // slow machine is not needed: off a terminal nothing is ever drawn, however long.
+    let dir = tempfile::tempdir().unwrap();
+    let trace = simulate(dir.path(), "still-hour", "600");
+    let est = dir.path().join("est.csv");
+    let o = run(&["replay", p(&trace), "--out", p(&est)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let err = stderr(&o);
+    assert!(!err.contains('\u{1b}') && !err.contains('\r'), "{err:?}");
+    assert!(!err.contains("replay ["), "{err}");
+}
+
+/// On a terminal (a pseudo-terminal from util-linux `script`), a replay still reading after
+/// 1 s shows progress on stderr. The trace comes through a FIFO, written in two halves 1.5 s
+/// apart, so the replay is long without a large file (its size unknown: a spinner and the
+/// bytes read).
+#[cfg(target_os = "linux")]
+#[test]
+fn replay_shows_progress_on_a_terminal() {
+    use std::io::Write as _;
+    let have = |cmd: &str| Command::new("sh").args(["-c", &format!("command -v {cmd}")]).output();
+    if !have("script").is_ok_and(|o| o.status.success())
+        || !have("mkfifo").is_ok_and(|o| o.status.success())
+    {
+        eprintln!("SKIPPED: needs util-linux script and mkfifo");
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let trace = simulate(dir.path(), "pitch-sine", "60");
+    let text = std::fs::read(&trace).unwrap();
+    let fifo = dir.path().join("trace.fifo");
+    assert!(Command::new("mkfifo").arg(&fifo).status().unwrap().success());
+    let est = dir.path().join("est.csv");
+    let cmd = format!("'{BIN}' replay '{}' --out '{}'", p(&fifo), p(&est));
+    let child = Command::new("script")
+        .args(["-qec", &cmd, "/dev/null"])
+        .stdin(std::process::Stdio::null())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut w = std::fs::OpenOptions::new().write(true).open(&fifo).unwrap();
+    let half = text.len() / 2;
+    w.write_all(&text[..half]).unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(1500));
+    w.write_all(&text[half..]).unwrap();
+    drop(w);
+    let o = child.wait_with_output().unwrap();
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{out}");
+    assert!(out.contains("replay: 3000 rows"), "{out}");
+    // The bar's line: drawn and cleared with escape codes, with the bytes read.
+    assert!(out.contains('\u{1b}') && out.contains(" KiB"), "{out:?}");
 }
