@@ -261,7 +261,8 @@ pub struct EkfSettings {
     pub initial_tilt_sigma: f32,
     /// Yaw standard deviation after initialisation, rad. Default 5°.
     pub initial_yaw_sigma: f32,
-    /// Gyro-bias standard deviation after initialisation, rad/s. Default 0.2 °/s.
+    /// Gyro-bias standard deviation after initialisation, rad/s. Default 0.2 °/s. Also the rate
+    /// agreement a still initialisation window tolerates (`init.rs`).
     pub initial_bias_sigma: f32,
     /// Longest time constant of the accelerometer's low-pass in the estimate's NED frame, s:
     /// reached in strong motion, where motion accelerations average out and gravity stays
