@@ -21,3 +21,5 @@ pub mod registry;
 pub mod settings;
 pub mod status;
 pub mod supervision;
+#[cfg(test)]
+mod test_rng;

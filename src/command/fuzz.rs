@@ -18,16 +18,15 @@ use ekf_core::{ImuSample, Vec3};
 /// Lines executed by [`fuzz_the_command_parser`] (stated in `docs/commands.md`).
 pub const FUZZ_INPUTS: usize = 150_000;
 
-struct Rng(u64);
+/// The fuzz test's generator: `TestRng` (xoshiro256++) with the helpers it needs.
+struct Rng(crate::test_rng::TestRng);
 
 impl Rng {
     fn next(&mut self) -> u64 {
-        self.0 =
-            self.0.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
-        self.0 >> 16
+        self.0.next_u64() >> 16
     }
     fn below(&mut self, n: usize) -> usize {
-        (self.next() % n.max(1) as u64) as usize
+        self.0.below(n)
     }
     fn pick<'a, T>(&mut self, xs: &'a [T]) -> &'a T {
         &xs[self.below(xs.len())]
@@ -273,7 +272,7 @@ fn execute_checked(d: &mut Device, flash: &mut SimFlash, line: &[u8]) -> (bool, 
 #[test]
 fn fuzz_the_command_parser() {
     let corpus = corpus();
-    let mut rng = Rng(0x5EED);
+    let mut rng = Rng(crate::test_rng::TestRng::new(0x5EED));
     let mut d = fresh();
     let mut flash = SimFlash::new();
     let (mut replies, mut errors, mut oks) = (0usize, 0usize, 0usize);
@@ -315,7 +314,7 @@ fn fuzz_the_command_parser() {
 #[test]
 fn fuzz_byte_streams_through_the_line_assembler() {
     let corpus = corpus();
-    let mut rng = Rng(0xB17E);
+    let mut rng = Rng(crate::test_rng::TestRng::new(0xB17E));
     let mut d = fresh();
     let mut flash = SimFlash::new();
     let mut asm = LineAssembler::new();

@@ -63,23 +63,16 @@ fn adc(dps: [f32; 3], depth_v: f32) -> AdcMean {
     }
 }
 
-struct Noise(u64);
-
-impl Noise {
-    /// Uniform in [−a, a].
-    fn u(&mut self, a: f32) -> f32 {
-        self.0 =
-            self.0.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
-        let x = (self.0 >> 40) as f32 / (1u64 << 24) as f32;
-        (2.0 * x - 1.0) * a
-    }
-}
+use crate::test_rng::TestRng as Noise;
 
 fn inputs(dps: [f32; 3], accel_g: [f32; 3], n: &mut Noise) -> Inputs {
     Inputs {
         dt: 0.02,
-        adc: Some(adc([dps[0] + n.u(0.1), dps[1] + n.u(0.1), dps[2] + n.u(0.03)], 0.5)),
-        accel_g: Some(accel_g.map(|a| a + n.u(0.001))),
+        adc: Some(adc(
+            [dps[0] + n.uniform(0.1), dps[1] + n.uniform(0.1), dps[2] + n.uniform(0.03)],
+            0.5,
+        )),
+        accel_g: Some(accel_g.map(|a| a + n.uniform(0.001))),
         ..Inputs::default()
     }
 }
@@ -329,7 +322,7 @@ fn yaw_rate_sentences_and_raw_mode() {
     d.set_heading_ref(crate::pipeline::HeadingRef::Magnetic);
     assert!(run(&mut d, &mut f, "PINAC,STATUS").0.ends_with(",M,,"));
     // Raw mode: $PINAW every cycle, $PINAX when the depth (or magnetometer) was read.
-    let mut n = Noise(1);
+    let mut n = Noise::new(1);
     let i = inputs([0.0; 3], [0.0, 0.0, 1.0], &mut n);
     assert!(cycle(&mut d, &i).raw_sentences().next().is_none());
     assert_eq!(run(&mut d, &mut f, "PINAC,RAW,1").0, "PINAR,OK,RAW,1");
@@ -382,7 +375,7 @@ fn zero_depth_uses_the_latest_reading() {
 fn gyro_bias_calibration_sets_the_offset_or_detects_motion() {
     let mut d = fresh();
     let mut f = SimFlash::new();
-    let mut n = Noise(7);
+    let mut n = Noise::new(7);
     assert_eq!(run(&mut d, &mut f, "PINAC,GBIAS,2").0, "PINAR,OK,GBIAS,RUN,2");
     assert_eq!(d.status_flags() & STATUS_GBIAS, STATUS_GBIAS);
     let bias = [1.0, -2.0, 0.5];
@@ -447,7 +440,7 @@ fn gyro_bias_calibration_sets_the_offset_or_detects_motion() {
 fn six_position_accelerometer_calibration() {
     let mut d = fresh();
     let mut f = SimFlash::new();
-    let mut n = Noise(3);
+    let mut n = Noise::new(3);
     let mut fit = ekf_core::accel_calibration::SixPositionFit::new();
     // The sensor reads 2 % high with an offset.
     let offset = [0.01, -0.02, 0.03];
@@ -533,7 +526,7 @@ fn the_pipeline_follows_the_settings_and_keeps_its_attitude() {
     let mut s = *d.settings();
     s.filter.init.window_s = 0.2;
     let mut p = Pipeline::new(s);
-    let mut n = Noise(9);
+    let mut n = Noise::new(9);
     for _ in 0..50 {
         p.step(&inputs([0.0; 3], [0.0, 0.0, 1.0], &mut n));
     }
@@ -602,7 +595,7 @@ fn docs_describe_every_verb_and_reason() {
 fn print_examples() {
     let mut d = fresh();
     let mut f = SimFlash::new();
-    let mut n = Noise(5);
+    let mut n = Noise::new(5);
     let show = |d: &mut Device, f: &mut SimFlash, body: &str| {
         let line = cmd(body);
         let r = d.execute(&line, f);

@@ -2,18 +2,7 @@ use super::*;
 use crate::registry::{find, Value};
 
 /// Deterministic generator for the tests (64-bit LCG, high bits).
-struct Lcg(u64);
-
-impl Lcg {
-    fn next(&mut self) -> u32 {
-        self.0 =
-            self.0.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
-        (self.0 >> 33) as u32
-    }
-    fn below(&mut self, n: usize) -> usize {
-        (self.next() as usize) % n.max(1)
-    }
-}
+use crate::test_rng::TestRng;
 
 /// Settings that differ from the defaults in many entries, `k` making them distinct.
 fn variant(k: u32) -> PipelineSettings {
@@ -222,14 +211,14 @@ fn a_power_cut_at_any_step_of_a_save_keeps_the_old_or_the_new_settings() {
 /// the last completed save's or the interrupted save's, never anything else.
 #[test]
 fn random_chains_of_interrupted_saves_never_lose_the_last_good_settings() {
-    let mut rng = Lcg(7);
+    let mut rng = TestRng::new(7);
     for _ in 0..40 {
         let mut f = SimFlash::new();
         let mut good = PipelineSettings::default();
         for k in 0..25u32 {
-            let candidate = variant(rng.next() % 1000 + k);
+            let candidate = variant((rng.next_u64() >> 32) as u32 % 1000 + k);
             let cut = rng.below(400);
-            let torn = rng.next() % 2 == 0;
+            let torn = (rng.next_u64() >> 32) as u32 % 2 == 0;
             f.cut_power_after(cut, torn);
             let r = save(&mut f, &candidate);
             f.power_on();
@@ -246,7 +235,7 @@ fn random_chains_of_interrupted_saves_never_lose_the_last_good_settings() {
 
 #[test]
 fn random_bit_flips_in_one_page_are_detected() {
-    let mut rng = Lcg(42);
+    let mut rng = TestRng::new(42);
     let older = variant(1);
     let newer = variant(2);
     let mut base = SimFlash::new();
