@@ -22,9 +22,6 @@ pub const FUZZ_INPUTS: usize = 150_000;
 struct Rng(crate::test_rng::TestRng);
 
 impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0.next_u64() >> 16
-    }
     fn below(&mut self, n: usize) -> usize {
         self.0.below(n)
     }
