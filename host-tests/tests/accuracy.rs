@@ -149,6 +149,39 @@ fn ekf_keeps_the_robustness_goals() {
     assert!(failures.is_empty(), "robustness regressions:\n{}", failures.join("\n"));
 }
 
+/// `still-hour` with the realistic sensor errors for `seconds`, replayed through the EKF with
+/// `cfg`; `each` sees every row from 20 s on with its estimate.
+fn realistic_still(
+    seconds: f64,
+    cfg: &host_tests::config::ReplayConfig,
+    mut each: impl FnMut(&host_tests::trace::TraceRow, &host_tests::trace::EstimateRow),
+) {
+    use host_tests::accuracy::simulate_with;
+    use host_tests::sim::SimOptions;
+    let opts = SimOptions {
+        seed: SEED,
+        duration_s: Some(seconds),
+        realistic: true,
+        ..SimOptions::default()
+    };
+    let rows = simulate_with(Scenario::StillHour, &opts);
+    let mut f = cfg.make_filter(FilterKind::Ekf);
+    let mut cond = ekf_core::conditioning::Conditioner::new(cfg.conditioning);
+    host_tests::replay::replay_rows(
+        rows.iter().map(|r| Ok(*r)),
+        f.as_mut(),
+        &mut cond,
+        10.0,
+        |r, e| {
+            if r.t >= 20.0 {
+                each(r, e);
+            }
+            Ok(())
+        },
+    )
+    .unwrap();
+}
+
 #[test]
 fn a_still_board_with_realistic_sensors_keeps_its_bias() {
     // `still-hour` for 120 s with the realistic sensor errors (vibration 0.02 g, quantisation,
@@ -159,15 +192,8 @@ fn a_still_board_with_realistic_sensors_keeps_its_bias() {
     // motion ran its z bias to 4 °/s with the first bias-gain design; the window's limits and
     // the bias gain of docs/filter.md are what keep it. `ekf_heading_on_repoimu_holds` is the
     // test that fails without that bias gain.)
-    use host_tests::accuracy::{replay_config, simulate_with};
-    use host_tests::sim::{SimOptions, GYRO_BIAS_DPS};
-    let opts = SimOptions {
-        seed: SEED,
-        duration_s: Some(120.0),
-        realistic: true,
-        ..SimOptions::default()
-    };
-    let rows = simulate_with(Scenario::StillHour, &opts);
+    use host_tests::accuracy::replay_config;
+    use host_tests::sim::GYRO_BIAS_DPS;
     for moving_start in [false, true] {
         let mut cfg = replay_config(Scenario::StillHour);
         if moving_start {
@@ -175,29 +201,17 @@ fn a_still_board_with_realistic_sensors_keeps_its_bias() {
             cfg.settings.ekf.initial_bias_sigma = 2f32.to_radians();
             cfg.settings.ekf.initial_tilt_sigma = 30f32.to_radians();
         }
-        let mut f = cfg.make_filter(FilterKind::Ekf);
-        let mut cond = ekf_core::conditioning::Conditioner::new(cfg.conditioning);
         let mut worst_bias = 0.0f64;
         let mut yaw = (0.0f64, 0.0f64);
-        host_tests::replay::replay_rows(
-            rows.iter().map(|r| Ok(*r)),
-            f.as_mut(),
-            &mut cond,
-            10.0,
-            |r, e| {
-                if r.t >= 20.0 {
-                    for (b, t) in e.bias_dps.iter().zip(GYRO_BIAS_DPS) {
-                        worst_bias = worst_bias.max((*b as f64 - t).abs());
-                    }
-                    if r.t < 20.02 {
-                        yaw.0 = e.euler_deg[2] as f64;
-                    }
-                    yaw.1 = e.euler_deg[2] as f64;
-                }
-                Ok(())
-            },
-        )
-        .unwrap();
+        realistic_still(120.0, &cfg, |r, e| {
+            for (b, t) in e.bias_dps.iter().zip(GYRO_BIAS_DPS) {
+                worst_bias = worst_bias.max((*b as f64 - t).abs());
+            }
+            if r.t < 20.02 {
+                yaw.0 = e.euler_deg[2] as f64;
+            }
+            yaw.1 = e.euler_deg[2] as f64;
+        });
         let turned = host_tests::replay::wrap_deg(yaw.1 - yaw.0);
         eprintln!("moving start {moving_start}: worst bias error after 20 s {worst_bias:.3} °/s, yaw turned {turned:.2}° in 100 s");
         // The simulated bias wanders too (random walk and flicker); a moving start learns the
@@ -215,38 +229,17 @@ fn a_vibrating_still_board_is_at_rest_and_holds_its_heading() {
     // block's 0.25 s segment means, which the vibration does not move, so the board is at rest
     // most of the time and the yaw is held. (With the samples' own spread as the test, as until
     // session 7, it was never at rest and the yaw drifted by tens of degrees per hour.)
-    use host_tests::accuracy::{replay_config, simulate_with};
-    use host_tests::sim::SimOptions;
-    let opts = SimOptions {
-        seed: SEED,
-        duration_s: Some(600.0),
-        realistic: true,
-        ..SimOptions::default()
-    };
-    let rows = simulate_with(Scenario::StillHour, &opts);
-    let cfg = replay_config(Scenario::StillHour);
-    let mut f = cfg.make_filter(FilterKind::Ekf);
-    let mut cond = ekf_core::conditioning::Conditioner::new(cfg.conditioning);
+    let cfg = host_tests::accuracy::replay_config(Scenario::StillHour);
     let (mut n, mut at_rest) = (0u32, 0u32);
     let mut yaw = (0.0f64, 0.0f64);
-    host_tests::replay::replay_rows(
-        rows.iter().map(|r| Ok(*r)),
-        f.as_mut(),
-        &mut cond,
-        10.0,
-        |r, e| {
-            if r.t >= 20.0 {
-                n += 1;
-                at_rest += (e.flags & ekf_core::Flags::AT_REST.bits() != 0) as u32;
-                if n == 1 {
-                    yaw.0 = e.euler_deg[2] as f64;
-                }
-                yaw.1 = e.euler_deg[2] as f64;
-            }
-            Ok(())
-        },
-    )
-    .unwrap();
+    realistic_still(600.0, &cfg, |_, e| {
+        n += 1;
+        at_rest += (e.flags & ekf_core::Flags::AT_REST.bits() != 0) as u32;
+        if n == 1 {
+            yaw.0 = e.euler_deg[2] as f64;
+        }
+        yaw.1 = e.euler_deg[2] as f64;
+    });
     let turned = host_tests::replay::wrap_deg(yaw.1 - yaw.0);
     let rest = at_rest as f64 / n as f64;
     eprintln!(
