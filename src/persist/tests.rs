@@ -124,6 +124,24 @@ fn old_and_new_records_stay_readable() {
     assert_eq!(load(&f).source, Source::Defaults);
 }
 
+/// A flash with one record of `settings` in `page`, sequence `seq`, that lacks the settings
+/// `missing` (as a firmware from before they existed wrote it).
+fn record_without(settings: &PipelineSettings, missing: &[u16], page: Page, seq: u32) -> SimFlash {
+    let values: Vec<(u16, Vec<u8>)> = crate::registry::SETTINGS
+        .iter()
+        .filter(|s| !missing.contains(&s.id))
+        .map(|s| {
+            let mut buf = [0u8; 12];
+            let n = s.encode(&s.get(settings), &mut buf);
+            (s.id, buf[..n].to_vec())
+        })
+        .collect();
+    let entries: Vec<(u16, &[u8])> = values.iter().map(|(id, v)| (*id, v.as_slice())).collect();
+    let mut f = SimFlash::new();
+    write_raw(&mut f, page, seq, FORMAT_VERSION, &entries);
+    f
+}
+
 /// A record saved by the firmware before the motion-adaptive EKF settings (ids 14, 67, 68,
 /// 69; format version 1 then as now): every other setting's entry, with that firmware's
 /// defaults — the source's gate, 1 ± 0.05 g and χ² 16. It loads in full, the new settings
@@ -134,18 +152,7 @@ fn a_record_from_before_the_new_ekf_settings_loads_with_their_defaults() {
     let mut old = PipelineSettings::default();
     old.filter.gate = ekf_core::settings::GateSettings::SOURCE;
     old.depth.water_density_kg_m3 = 998.0;
-    let values: Vec<(u16, Vec<u8>)> = crate::registry::SETTINGS
-        .iter()
-        .filter(|s| !NEW.contains(&s.id))
-        .map(|s| {
-            let mut buf = [0u8; 12];
-            let n = s.encode(&s.get(&old), &mut buf);
-            (s.id, buf[..n].to_vec())
-        })
-        .collect();
-    let entries: Vec<(u16, &[u8])> = values.iter().map(|(id, v)| (*id, v.as_slice())).collect();
-    let mut f = SimFlash::new();
-    write_raw(&mut f, Page::A, 7, FORMAT_VERSION, &entries);
+    let f = record_without(&old, &NEW, Page::A, 7);
     let l = load(&f);
     assert_eq!(l.source, Source::Flash { page: Page::A, seq: 7 });
     assert_eq!((l.skipped, l.missing), (0, NEW.len() as u16));
@@ -366,18 +373,7 @@ fn a_record_from_before_the_marine_settings_loads_with_their_defaults() {
     let mut old = PipelineSettings::default();
     old.sentences.prdid = false;
     old.output_rate_hz = 5;
-    let values: Vec<(u16, Vec<u8>)> = crate::registry::SETTINGS
-        .iter()
-        .filter(|s| !NEW.contains(&s.id))
-        .map(|s| {
-            let mut buf = [0u8; 12];
-            let n = s.encode(&s.get(&old), &mut buf);
-            (s.id, buf[..n].to_vec())
-        })
-        .collect();
-    let entries: Vec<(u16, &[u8])> = values.iter().map(|(id, v)| (*id, v.as_slice())).collect();
-    let mut f = SimFlash::new();
-    write_raw(&mut f, Page::B, 3, FORMAT_VERSION, &entries);
+    let f = record_without(&old, &NEW, Page::B, 3);
     let l = load(&f);
     assert_eq!(l.source, Source::Flash { page: Page::B, seq: 3 });
     assert_eq!((l.skipped, l.missing), (0, NEW.len() as u16));
