@@ -193,7 +193,8 @@ impl Pipeline {
 
         // Accelerometer (sensor axes, g → m/s²); an I²C failure leaves the gyros alone.
         let accel_raw = inputs.accel_g.map(|a| Vec3::from_array(a) * GRAVITY).unwrap_or(nan);
-        let (gyro, accel) = self.conditioner.condition(inputs.dt, gyro_raw, accel_raw);
+        let (gyro, accel) =
+            self.conditioner.condition(inputs.dt, gyro_raw, accel_raw, self.ekf.gyro_bias());
         let mut sample = ekf_core::ImuSample::new(inputs.dt, gyro, accel);
         sample.mag = inputs.mag_ut.map(|m| self.conditioner.condition_mag(Vec3::from_array(m)));
 
@@ -280,7 +281,8 @@ impl Pipeline {
             inputs.adc.map(|mean| self.settings.gyro.rates(&mean).rate_vec3()).unwrap_or(nan);
         let accel_raw = inputs.accel_g.map(|a| Vec3::from_array(a) * GRAVITY).unwrap_or(nan);
         let mut conditioner = self.conditioner;
-        let (gyro, accel) = conditioner.condition(inputs.dt, gyro_raw, accel_raw);
+        let (gyro, accel) =
+            conditioner.condition(inputs.dt, gyro_raw, accel_raw, self.ekf.gyro_bias());
         let mut sample = ekf_core::ImuSample::new(inputs.dt, gyro, accel);
         sample.mag = inputs.mag_ut.map(|m| conditioner.condition_mag(Vec3::from_array(m)));
         sample
@@ -373,6 +375,33 @@ mod tests {
         assert!((e.pitch - deg(10.0)).abs() < deg(0.05) && (e.roll - deg(5.0)).abs() < deg(0.05));
         let line = last.expect("sentences");
         assert_eq!(verify(line.as_bytes()).unwrap(), "PRDID,+10.00,+5.00,0.00");
+    }
+
+    /// The lever-arm compensation (the Seahog's 0.36 m arm, on by default) works on the rate
+    /// less the estimated gyro bias: a still, tilted board whose gyros read only their bias
+    /// (2, 3, −1 °/s) settles on its true tilt. On the raw rate it would remove a centripetal
+    /// `b × (b × r)` of 1.5·10⁻³ m/s² from gravity: 0.009° of tilt.
+    #[test]
+    fn gyro_bias_adds_no_centripetal_tilt() {
+        let mut s = PipelineSettings::default();
+        s.filter.init.window_s = 1.0;
+        assert!(s.conditioning.lever_arm.centripetal && s.conditioning.lever_arm.r.norm() > 0.3);
+        let mut p = Pipeline::new(s);
+        let truth = Euler::new(deg(5.0), deg(10.0), 0.0).to_quaternion();
+        let f_sensor = board::ACCEL_AXES.inverse().apply(truth.down_in_body() * -1.0);
+        for _ in 0..1500 {
+            p.step(&Inputs {
+                dt: 0.02,
+                adc: Some(still_adc([2.0, 3.0, -1.0])),
+                accel_g: Some(f_sensor.to_array()),
+                ..Inputs::default()
+            });
+        }
+        let bias = p.ekf().gyro_bias().norm();
+        assert!((bias - deg(3.742)).abs() < deg(0.01), "bias {bias} rad/s");
+        let e = Euler::from_quaternion(p.ekf().attitude());
+        let (roll, pitch) = ((e.roll - deg(5.0)).abs(), (e.pitch - deg(10.0)).abs());
+        assert!(roll.max(pitch) < deg(0.002), "roll error {roll}, pitch error {pitch} rad");
     }
 
     #[test]

@@ -5,7 +5,10 @@
 //! - gyroscope (rad/s): axis map → subtract the static bias [`ConditioningSettings::gyro_offset`]
 //!   (body FRD);
 //! - accelerometer (m/s²): [`AccelCalibration`] in the sensor's own axes (it is fitted on raw
-//!   data) → axis map → lever-arm compensation using the conditioned gyro;
+//!   data) → axis map → lever-arm compensation using the conditioned gyro less the estimator's
+//!   current bias estimate (the true rate: the iNEMO's gyro biases of up to 3.4 °/s would
+//!   otherwise add a constant centripetal term, 1.6·10⁻⁴ g or 0.01° of tilt with the Seahog's
+//!   0.36 m arm);
 //! - magnetometer (µT): axis map only.
 
 use crate::accel_calibration::AccelCalibration;
@@ -88,15 +91,27 @@ impl Conditioner {
     /// `dt`: time since the previous call, s. `gyro_raw`: rad/s, gyro sensor axes.
     /// `accel_raw`: specific force, m/s², accelerometer sensor axes.
     ///
-    /// Returns `(gyro_body, accel_body)`: bias-corrected rate, rad/s, body FRD; and specific
-    /// force at the rotation centre, m/s², body FRD. Non-finite input propagates to the output
-    /// of the same sensor (the lever-arm state is left untouched); an invalid `dt` skips only the
-    /// lever-arm compensation.
-    pub fn condition(&mut self, dt: f32, gyro_raw: Vec3, accel_raw: Vec3) -> (Vec3, Vec3) {
+    /// `rate_bias`: the estimator's current gyro bias estimate, rad/s, body FRD
+    /// ([`AttitudeFilter::gyro_bias`](crate::AttitudeFilter::gyro_bias)); the lever-arm terms use
+    /// `gyro_body − rate_bias`, the estimated true rate. It does not change `gyro_body`: the
+    /// estimator subtracts its own bias. A non-finite `rate_bias` counts as zero.
+    ///
+    /// Returns `(gyro_body, accel_body)`: rate less the static offset, rad/s, body FRD; and
+    /// specific force at the rotation centre, m/s², body FRD. Non-finite input propagates to the
+    /// output of the same sensor (the lever-arm state is left untouched); an invalid `dt` skips
+    /// only the lever-arm compensation.
+    pub fn condition(
+        &mut self,
+        dt: f32,
+        gyro_raw: Vec3,
+        accel_raw: Vec3,
+        rate_bias: Vec3,
+    ) -> (Vec3, Vec3) {
         let s = &self.settings;
         let gyro = s.gyro_axes.apply(gyro_raw) - s.gyro_offset;
         let accel = s.accel_axes.apply(s.accel_calibration.apply(accel_raw));
-        let accel = self.lever.compensate(accel, gyro, dt);
+        let bias = if rate_bias.is_finite() { rate_bias } else { Vec3::ZERO };
+        let accel = self.lever.compensate(accel, gyro - bias, dt);
         (gyro, accel)
     }
 
@@ -150,7 +165,7 @@ mod tests {
         //        → lever arm: ω × (ω × r) = (−0.3, 0, 0) removed: (1.2, 1.530665, −8.5096675).
         let accel_raw = Vec3::new(0.5, 1.0, 9.0);
         for _ in 0..3 {
-            let (g, a) = c.condition(0.01, gyro_raw, accel_raw);
+            let (g, a) = c.condition(0.01, gyro_raw, accel_raw, Vec3::ZERO);
             assert!(close(g, Vec3::new(0.0, 0.0, 1.0), 1e-6), "{g:?}");
             assert!(close(a, Vec3::new(1.2, 1.530_665, -8.509_668), 1e-5), "{a:?}");
         }
@@ -170,7 +185,7 @@ mod tests {
         let gyro_raw = Vec3::new(0.3, -0.4, 0.2);
         let accel_raw = Vec3::new(-1.0, 2.0, -9.5);
         let mut c = Conditioner::new(s);
-        let (g, a) = c.condition(0.01, gyro_raw, accel_raw);
+        let (g, a) = c.condition(0.01, gyro_raw, accel_raw, Vec3::ZERO);
 
         let g_ref = s.gyro_axes.apply(gyro_raw) - s.gyro_offset;
         let r = s.lever_arm.r;
@@ -198,7 +213,7 @@ mod tests {
             let t = k as f32;
             let gyro = Vec3::new(0.1 * t, -0.3, 1.0 - 0.05 * t);
             let accel = Vec3::new(0.2, -0.1 * t, -GRAVITY);
-            let (g, a) = c.condition(0.01, gyro, accel);
+            let (g, a) = c.condition(0.01, gyro, accel, Vec3::ZERO);
             assert_eq!(g, gyro);
             assert_eq!(a, accel);
         }
@@ -219,7 +234,32 @@ mod tests {
         // Still board: no rotation, so nothing changes even with the lever arm.
         let mut c = Conditioner::default();
         let still = Vec3::new(0.0, 0.0, -GRAVITY);
-        assert_eq!(c.condition(0.01, Vec3::ZERO, still), (Vec3::ZERO, still));
+        assert_eq!(c.condition(0.01, Vec3::ZERO, still, Vec3::ZERO), (Vec3::ZERO, still));
+    }
+
+    /// The lever-arm terms use the estimated true rate: a still board whose gyros read only
+    /// their bias (the iNEMO's 1.6, 3.4, −0.4 °/s) sees no centripetal acceleration once the
+    /// estimator's bias is given; without it, `ω_b × (ω_b × r)` = 4.6·10⁻³ m/s² would be removed
+    /// from gravity. A non-finite bias counts as zero.
+    #[test]
+    fn the_lever_arm_uses_the_rate_less_the_estimated_bias() {
+        let deg = core::f32::consts::PI / 180.0;
+        let bias = Vec3::new(1.619 * deg, 3.44 * deg, -0.4 * deg);
+        let still = Vec3::new(0.0, 0.0, -GRAVITY);
+        let mut c = Conditioner::default();
+        for _ in 0..3 {
+            assert_eq!(c.condition(0.02, bias, still, bias), (bias, still));
+        }
+        let r = ConditioningSettings::default().lever_arm.r;
+        let wrong = still - bias.cross(bias.cross(r));
+        assert!((wrong - still).norm() > 1e-3, "{wrong:?}");
+        let mut c = Conditioner::default();
+        let (_, a) = c.condition(0.02, bias, still, Vec3::ZERO);
+        assert!(close(a, wrong, 1e-7), "{a:?}");
+        let nan = Vec3::new(f32::NAN, 0.0, 0.0);
+        let mut c = Conditioner::default();
+        let (_, a) = c.condition(0.02, bias, still, nan);
+        assert!(close(a, wrong, 1e-7), "{a:?}");
     }
 
     #[test]
@@ -228,13 +268,13 @@ mod tests {
         let gyro_raw = Vec3::new(-0.2, 0.1, -1.5);
         let accel_raw = Vec3::new(0.5, 1.0, 9.0);
         let nan = Vec3::new(f32::NAN, 0.0, 0.0);
-        let (g, a) = c.condition(0.01, nan, accel_raw);
+        let (g, a) = c.condition(0.01, nan, accel_raw, Vec3::ZERO);
         assert!(!g.is_finite());
         assert!(a.is_finite(), "finite accel must stay finite: {a:?}");
-        let (g, a) = c.condition(-1.0, gyro_raw, accel_raw);
+        let (g, a) = c.condition(-1.0, gyro_raw, accel_raw, Vec3::ZERO);
         assert!(g.is_finite() && a.is_finite());
         // After bad samples the pipeline still gives the hand values.
-        let (_, a) = c.condition(0.01, gyro_raw, accel_raw);
+        let (_, a) = c.condition(0.01, gyro_raw, accel_raw, Vec3::ZERO);
         assert!(close(a, Vec3::new(1.2, 1.530_665, -8.509_668), 1e-5), "{a:?}");
         // set_settings replaces everything.
         c.set_settings(ConditioningSettings::default());

@@ -289,13 +289,16 @@ fn conditioned_samples(scenario: Scenario, seed: u64) -> Vec<ImuSample> {
     let rows = simulate(scenario, None, seed);
     let cfg = replay_config(scenario);
     let mut cond = Conditioner::new(cfg.conditioning);
+    let bias = cfg.settings.init.gyro_bias;
     let mut prev = None;
     rows.iter()
         .map(|r| {
             let dt = prev.map_or(1.0 / 50.0, |p| r.t - p) as f32;
             prev = Some(r.t);
+            // Timing input only: the lever arm with the configured bias, which the EKF's
+            // estimate starts from.
             let (gyro, accel) =
-                cond.condition(dt, Vec3::from_array(r.gyro), Vec3::from_array(r.accel));
+                cond.condition(dt, Vec3::from_array(r.gyro), Vec3::from_array(r.accel), bias);
             ImuSample { dt, gyro, accel, mag: None }
         })
         .collect()

@@ -363,8 +363,12 @@ where
             (None, Some(n)) => n.t - row.t,
             (None, None) => 0.0,
         } as f32;
-        let (gyro, accel) =
-            conditioner.condition(dt, Vec3::from_array(row.gyro), Vec3::from_array(row.accel));
+        let (gyro, accel) = conditioner.condition(
+            dt,
+            Vec3::from_array(row.gyro),
+            Vec3::from_array(row.accel),
+            filter.gyro_bias(),
+        );
         let mag = row.mag.map(|m| conditioner.condition_mag(Vec3::from_array(m)));
         let flags = filter.update(&ImuSample { dt, gyro, accel, mag });
         let q = filter.attitude();
