@@ -31,6 +31,7 @@
 //! neither is valid it returns the defaults and [`Source::Defaults`].
 
 mod crc;
+pub mod f103;
 mod flash;
 
 pub use crc::{crc32, Crc32};
