@@ -179,10 +179,9 @@ impl<R: FpecRegs> Flash for F103Flash<R> {
     }
 
     fn read(&self, page: Page, offset: usize, buf: &mut [u8]) -> Result<(), FlashError> {
-        let mut at = address(page, offset, buf.len())?;
-        for b in buf.iter_mut() {
+        let start = address(page, offset, buf.len())?;
+        for (at, b) in (start..).zip(buf.iter_mut()) {
             *b = self.regs.read_byte(at);
-            at += 1;
         }
         Ok(())
     }

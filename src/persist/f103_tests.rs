@@ -80,6 +80,9 @@ struct Fpec {
     /// FLASH_WRPR bits that are protecting (1 = protected, the register's complement).
     protect: u32,
     bad_cell: Option<(usize, u8, u8)>,
+    /// EOP set with PGERR/WRPRTERR too (the manual sets EOP "when an operation completes";
+    /// whether a refused one counts is not said, so the tests try both).
+    eop_on_error: bool,
     cut_at: Option<(usize, bool)>,
     off: bool,
     /// Erases and programs started.
@@ -112,6 +115,7 @@ impl Fpec {
             stuck: false,
             protect: 0,
             bad_cell: None,
+            eop_on_error: false,
             cut_at: None,
             off: false,
             ops: 0,
@@ -221,6 +225,11 @@ impl Fpec {
         self.flags |= SR_EOP;
     }
 
+    /// An operation refused with error flag `flag`.
+    fn refuse(&mut self, flag: u32) {
+        self.flags |= flag | if self.eop_on_error { SR_EOP } else { 0 };
+    }
+
     fn write_while_busy(&self, what: &str) {
         if self.busy() {
             self.fault(format!("{what} written while busy"));
@@ -299,7 +308,7 @@ impl FpecRegs for Fpec {
             };
             let page = self.page_of(o);
             if self.protected(page) {
-                self.flags |= SR_WRPRTERR;
+                self.refuse(SR_WRPRTERR);
                 self.cr &= !CR_STRT;
             } else {
                 self.start(Op::Erase(page));
@@ -313,8 +322,7 @@ impl FpecRegs for Fpec {
         if self.lockout {
             return;
         }
-        let ok = self.locked
-            && if self.key1_seen { key == KEY2 } else { key == KEY1 };
+        let ok = self.locked && if self.key1_seen { key == KEY2 } else { key == KEY1 };
         if !ok {
             self.fault(format!("wrong key sequence ({key:#x}): locked until reset"));
             self.lockout = true;
@@ -356,9 +364,9 @@ impl FpecRegs for Fpec {
         }
         let old = u16::from_le_bytes([self.mem[o], self.mem[o + 1]]);
         if self.protected(self.page_of(o)) {
-            self.flags |= SR_WRPRTERR;
+            self.refuse(SR_WRPRTERR);
         } else if old != 0xFFFF && value != 0 {
-            self.flags |= SR_PGERR;
+            self.refuse(SR_PGERR);
         } else {
             self.start(Op::Program(o, value));
         }
@@ -605,37 +613,61 @@ fn a_power_cut_at_any_step_of_a_save_keeps_the_old_or_the_new_settings() {
     assert!(cases > 1000, "{cases}");
 }
 
-/// PGERR: a half-word that is not erased is not programmed (except with 0x0000).
+/// PGERR: a half-word that is not erased is not programmed (except with 0x0000), with EOP
+/// or without.
 #[test]
 fn programming_a_programmed_half_word_is_a_program_error() {
-    let mut d = driver();
-    d.program(Page::A, 10, 0x1234).unwrap();
-    assert_eq!(d.program(Page::A, 10, 0x0FFF), Err(FlashError::Program));
-    assert_eq!(&d.regs().settings()[10..12], &[0x34, 0x12]);
-    assert_clean(&d);
-    d.program(Page::A, 10, 0).unwrap();
-    assert_eq!(&d.regs().settings()[10..12], &[0, 0]);
-    assert_clean(&d);
+    for eop in [false, true] {
+        let mut d = driver();
+        d.regs_mut().eop_on_error = eop;
+        d.program(Page::A, 10, 0x1234).unwrap();
+        assert_eq!(d.program(Page::A, 10, 0x0FFF), Err(FlashError::Program));
+        assert_eq!(&d.regs().settings()[10..12], &[0x34, 0x12]);
+        assert_clean(&d);
+        // Refused even with the same value (it reads back right, but PGERR says it was not
+        // programmed: the contract of `Flash::program`, as the RAM flash has it).
+        assert_eq!(d.program(Page::A, 10, 0x1234), Err(FlashError::Program));
+        assert_clean(&d);
+        d.program(Page::A, 10, 0).unwrap();
+        assert_eq!(&d.regs().settings()[10..12], &[0, 0]);
+        assert_clean(&d);
+    }
 }
 
 /// WRPRTERR: FLASH_WRPR bit 31 protects pages 62–255 of the 512 KiB part, the settings pages
 /// among them; the other bits do not.
 #[test]
 fn a_write_protected_page_is_refused() {
-    let mut d = driver();
-    d.program(Page::B, 0, 0x00AA).unwrap();
-    d.regs_mut().protect = 0x7FFF_FFFF;
-    d.erase(Page::A).unwrap();
-    d.program(Page::A, 0, 0x1234).unwrap();
-    d.regs_mut().protect = 1 << 31;
-    let before = d.regs().settings().to_vec();
-    assert_eq!(d.erase(Page::B), Err(FlashError::WriteProtected));
-    assert_eq!(d.program(Page::A, 2, 0x5678), Err(FlashError::WriteProtected));
-    assert_eq!(d.regs().settings(), &before[..]);
-    assert_clean(&d);
-    d.regs_mut().protect = 0;
-    d.erase(Page::B).unwrap();
-    assert_clean(&d);
+    for eop in [false, true] {
+        let mut d = driver();
+        d.regs_mut().eop_on_error = eop;
+        d.program(Page::B, 0, 0x00AA).unwrap();
+        d.regs_mut().protect = 0x7FFF_FFFF;
+        d.erase(Page::A).unwrap();
+        d.program(Page::A, 0, 0x1234).unwrap();
+        d.regs_mut().protect = 1 << 31;
+        let before = d.regs().settings().to_vec();
+        assert_eq!(d.erase(Page::B), Err(FlashError::WriteProtected));
+        assert_eq!(d.program(Page::A, 2, 0x5678), Err(FlashError::WriteProtected));
+        assert_eq!(d.regs().settings(), &before[..]);
+        assert_clean(&d);
+        d.regs_mut().protect = 0;
+        d.erase(Page::B).unwrap();
+        assert_clean(&d);
+    }
+}
+
+/// The bounds of the waits, with the 1 µs pause between two polls: at least 2.5 times the
+/// datasheet's longest page erase (40 ms) and 10 times its longest half-word program (70 µs),
+/// and short enough that a dead controller is reported well within the watchdog's run
+/// timeout (500 ms; the filter task, of higher priority, keeps feeding it meanwhile).
+#[test]
+fn the_wait_bounds_cover_the_datasheet_times() {
+    let erase_us = u64::from(ERASE_POLLS);
+    let program_us = u64::from(PROGRAM_POLLS);
+    assert!((100_000..=200_000).contains(&erase_us), "{erase_us}");
+    assert!((700..=2_000).contains(&program_us), "{program_us}");
+    assert!(erase_us * 2 < u64::from(crate::supervision::watchdog::RUN_TIMEOUT_MS) * 1000);
 }
 
 /// A controller that never clears BSY: the erase and the program give up after their bounded
