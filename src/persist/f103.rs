@@ -15,8 +15,10 @@
 //! - **Half-word program**: the same, with PG set and a half-word write to the address
 //!   instead of PER/AR/STRT; afterwards the half-word must read back as written. The FPEC
 //!   refuses (PGERR) a half-word that is not erased unless the value is 0x0000.
-//! - **Lock again** after every operation, whatever its outcome, so a stray write to the
-//!   flash between two operations cannot program anything.
+//! - **Clear PG/PER and lock again** after every operation, whatever its outcome: a stray
+//!   write to the flash between two operations then programs nothing (LOCK alone would not
+//!   do: it protects FLASH_CR, and a PG left set keeps the flash programmable), and a stray
+//!   write to FLASH_CR changes nothing.
 //!
 //! Every address is computed from [`Page`] and an offset checked against the page size
 //! *before* any register access: the driver never touches anything outside

@@ -42,7 +42,9 @@ enum Op {
 /// - reset state: FLASH_CR locked (LOCK = 1); KEY1 then KEY2 into FLASH_KEYR unlock it; any
 ///   other key, or a key while unlocked (the manual does not say what that does: the model
 ///   assumes the worst), locks FLASH_CR until reset; writes to FLASH_CR while locked are
-///   ignored;
+///   ignored; LOCK protects FLASH_CR only, not the flash: a PG left set keeps the flash
+///   programmable by any half-word write, locked or not (as reported on ST's forum, "Illegal
+///   Flash Memory writes possible?", 2011);
 /// - page erase: PER, FLASH_AR = any address in the page, STRT; every byte of the page then
 ///   reads 0xFF; half-word program: PG, then a half-word write: refused with PGERR when the
 ///   half-word is not 0xFFFF, unless the value is 0x0000; programming only clears bits;
@@ -358,7 +360,7 @@ impl FpecRegs for Fpec {
         if self.busy() {
             return;
         }
-        if self.locked || self.cr & CR_PG == 0 {
+        if self.cr & CR_PG == 0 {
             self.fault(format!("write to the flash at {address:#x} without PG (ignored)"));
             return;
         }
@@ -770,4 +772,19 @@ fn the_read_back_catches_cells_that_do_not_erase_or_program() {
     assert_eq!(d.program(Page::B, 100, 0x0000), Err(FlashError::Program));
     assert_clean(&d);
     d.program(Page::B, 102, 0x0000).unwrap();
+}
+
+/// After an operation, locked or not, a stray half-word write (a wild pointer) programs
+/// nothing: PG is cleared, which LOCK alone would not do.
+#[test]
+fn a_stray_write_after_an_operation_programs_nothing() {
+    let mut d = driver();
+    d.program(Page::A, 0, 0x1234).unwrap();
+    d.regs_mut().write_half(0x0807_F010, 0x0000);
+    d.erase(Page::B).unwrap();
+    d.regs_mut().write_half(0x0807_F810, 0x0000);
+    assert_eq!(d.program(Page::A, 0, 0x1111), Err(FlashError::Program));
+    d.regs_mut().write_half(0x0807_F020, 0x0000);
+    assert!(d.regs().settings()[2..].iter().all(|&b| b == 0xFF));
+    assert_eq!(d.regs().faults.borrow().len(), 3);
 }
