@@ -152,6 +152,13 @@ impl<R: FpecRegs> F103Flash<R> {
         Ok(())
     }
 
+    /// FLASH_CR without PG, PER, STRT: an operation bit left set by other code (a known pitfall
+    /// with ST's HAL: its `FLASH_PageErase` called on its own leaves PER set) would make the
+    /// next operation PG and PER at once.
+    fn idle_cr(&mut self) -> u32 {
+        self.regs.cr() & !(CR_PG | CR_PER | CR_STRT)
+    }
+
     /// Clears the operation bit `op`, locks FLASH_CR, clears the status flags; maps the
     /// outcome of the wait (`waited`) to the error `failed` stands for.
     fn end(
@@ -191,7 +198,7 @@ impl<R: FpecRegs> Flash for F103Flash<R> {
     fn erase(&mut self, page: Page) -> Result<(), FlashError> {
         let start = page_address(page);
         self.begin()?;
-        let cr = self.regs.cr();
+        let cr = self.idle_cr();
         self.regs.write_cr(cr | CR_PER);
         self.regs.write_ar(start);
         self.regs.write_cr(cr | CR_PER | CR_STRT);
@@ -213,7 +220,7 @@ impl<R: FpecRegs> Flash for F103Flash<R> {
         }
         let at = address(page, offset, 2)?;
         self.begin()?;
-        let cr = self.regs.cr();
+        let cr = self.idle_cr();
         self.regs.write_cr(cr | CR_PG);
         self.regs.write_half(at, value);
         let waited = self.wait(PROGRAM_POLLS, true);

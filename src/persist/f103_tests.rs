@@ -788,3 +788,19 @@ fn a_stray_write_after_an_operation_programs_nothing() {
     assert!(d.regs().settings()[2..].iter().all(|&b| b == 0xFF));
     assert_eq!(d.regs().faults.borrow().len(), 3);
 }
+
+/// PG or PER left set by other code (unlocked, idle): the next operation starts without it.
+#[test]
+fn an_operation_bit_left_set_by_other_code_is_cleared() {
+    for left in [CR_PG, CR_PER] {
+        let mut d = driver();
+        d.regs_mut().locked = false;
+        d.regs_mut().cr = left;
+        d.program(Page::A, 8, 0xA5A5).unwrap();
+        assert_clean(&d);
+        d.regs_mut().locked = false;
+        d.regs_mut().cr = left;
+        d.erase(Page::A).unwrap();
+        assert_clean(&d);
+    }
+}
