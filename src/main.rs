@@ -154,7 +154,7 @@ mod firmware {
 
         // The settings: the newest valid flash record, else the defaults.
         let (flash, loaded, device, settings) = {
-            let flash = SettingsFlash::new(flash);
+            let flash = crate::app::settings_flash::take(flash);
             let loaded = persist::load(&flash);
             let device = Device::new(&loaded, reset.tag());
             let settings = *device.settings();

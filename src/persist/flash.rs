@@ -41,10 +41,18 @@ impl Page {
 pub enum FlashError {
     /// Offset or length outside the page, or an odd offset for a half-word.
     OutOfBounds,
-    /// The erase did not complete (hardware error flag, timeout).
+    /// The erase did not complete (no end of operation), or the page does not read erased.
     Erase,
-    /// The program did not complete, or the half-word was not erased (STM32F1 `PGERR`).
+    /// The program did not complete, the half-word was not erased (STM32F1 `PGERR`), or it
+    /// does not read back as written.
     Program,
+    /// The flash controller stayed locked after the unlock keys (STM32F1: until the next
+    /// reset, after a wrong key sequence).
+    Locked,
+    /// The page is write-protected (STM32F1 `WRPRTERR`).
+    WriteProtected,
+    /// The flash controller stayed busy past the longest erase or program time.
+    Timeout,
     /// Simulated power loss ([`SimFlash`] only): nothing more is written until
     /// [`SimFlash::power_on`].
     PowerLoss,
@@ -56,6 +64,9 @@ impl fmt::Display for FlashError {
             FlashError::OutOfBounds => "flash access out of bounds",
             FlashError::Erase => "flash erase failed",
             FlashError::Program => "flash program failed",
+            FlashError::Locked => "flash controller locked",
+            FlashError::WriteProtected => "flash page write-protected",
+            FlashError::Timeout => "flash controller busy too long",
             FlashError::PowerLoss => "power lost",
         })
     }
@@ -67,8 +78,8 @@ impl fmt::Display for FlashError {
 ///
 /// On the board, the pages are the last two 2 KiB pages of the 512 KiB bank
 /// (0x0807_F000 = A and 0x0807_F800 = B; the linker script must keep code out of them), and
-/// the implementation wraps the HAL's `FlashWriter` (`page_erase`, `write` of 2 bytes,
-/// `read`).
+/// the implementation is [`F103Flash`](super::f103::F103Flash), the register-level driver of
+/// the flash controller.
 pub trait Flash {
     /// Page size, bytes (2048 on the STM32F103RE).
     fn page_size(&self) -> usize;

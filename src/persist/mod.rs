@@ -29,8 +29,14 @@
 //! # Load
 //! [`load`] reads both pages and takes the valid record with the higher sequence number; if
 //! neither is valid it returns the defaults and [`Source::Defaults`].
+//!
+//! # Flash
+//! The store runs on any [`Flash`]: on the board [`f103::F103Flash`], the register-level
+//! driver of the STM32F103RE's flash controller (host-tested against a model of it); in the
+//! tests and the emulated firmware [`SimFlash`], in RAM.
 
 mod crc;
+pub mod f103;
 mod flash;
 
 pub use crc::{crc32, Crc32};

@@ -5,7 +5,7 @@ use crate::registry::{find, Value};
 use crate::test_rng::TestRng;
 
 /// Settings that differ from the defaults in many entries, `k` making them distinct.
-fn variant(k: u32) -> PipelineSettings {
+pub(super) fn variant(k: u32) -> PipelineSettings {
     let mut s = PipelineSettings::default();
     let kf = k as f32;
     s.filter.gate.norm_tolerance = 0.01 + 0.001 * (k % 100) as f32;
