@@ -81,11 +81,6 @@ impl Conditioner {
         *self = Conditioner::new(settings);
     }
 
-    /// Forget the lever-arm history (previous gyro sample, filtered angular acceleration).
-    pub fn reset(&mut self) {
-        self.lever.reset();
-    }
-
     /// Condition one gyro/accelerometer pair.
     ///
     /// `dt`: time since the previous call, s. `gyro_raw`: rad/s, gyro sensor axes.

@@ -82,11 +82,6 @@ impl LeverArmCompensator {
         &self.arm
     }
 
-    /// Replace the settings (the derivative history is kept).
-    pub fn set_arm(&mut self, arm: LeverArm) {
-        self.arm = arm;
-    }
-
     /// The current filtered angular acceleration estimate `ω̇`, rad/s², body FRD (zero until two
     /// valid samples have been seen).
     pub fn omega_dot(&self) -> Vec3 {
