@@ -1,7 +1,6 @@
 use super::*;
 use crate::registry::{find, Value};
 
-/// Deterministic generator for the tests (64-bit LCG, high bits).
 use crate::test_rng::TestRng;
 
 /// Settings that differ from the defaults in many entries, `k` making them distinct.
