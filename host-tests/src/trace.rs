@@ -684,10 +684,12 @@ pub const BIAS_DECIMALS: usize = 6;
 /// Writer of estimate files: `t,qw,qx,qy,qz,roll,pitch,yaw` (Euler in degrees), then
 /// `bias_x,bias_y,bias_z` (°/s) and `flags` (the `ekf_core::Flags` bits as an integer).
 ///
-/// `t` is written so that it reads back as the same `f64` (the input's value back; see
-/// [`push_time`]); the other numbers in fixed point, [`Q_DECIMALS`], [`EULER_DECIMALS`] and
+/// `t` is written so that it reads back as the same `f64` (the input's value back): with at
+/// most 9 decimals when that text reads back exactly (`0.02`, `1`), else shortest round trip
+/// (`0.0`, `1e-10`). The other numbers in fixed point, [`Q_DECIMALS`], [`EULER_DECIMALS`] and
 /// [`BIAS_DECIMALS`] decimals at most, rounded exactly (half away from zero), trailing zeros
-/// dropped (see [`push_fixed`]); NaN or infinite values are written as empty cells.
+/// dropped (`1`, `0.5`, `-0.00012`), a value that rounds to zero as `0`, `|v| ≥ 1e9` shortest
+/// round trip; NaN or infinite values are written as empty cells.
 /// Output is buffered in blocks: end with [`EstimateWriter::finish`].
 pub struct EstimateWriter<W: Write> {
     w: W,
