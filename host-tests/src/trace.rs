@@ -387,11 +387,11 @@ impl Record<'_> {
     /// beyond the type's range, which parse to infinities) or `NotANumber`.
     fn parse<T: std::str::FromStr + Copy + Into<f64>>(&self, i: usize) -> Result<T, TraceError> {
         let text = self.text(i);
-        let (line, column) = (self.line, self.header[i].clone());
+        let (line, column) = (self.line, || self.header[i].clone());
         match text.parse::<T>() {
             Ok(v) if v.into().is_finite() => Ok(v),
-            Ok(_) => Err(TraceError::NotFinite { line, column, text: text.into() }),
-            Err(_) => Err(TraceError::NotANumber { line, column, text: text.into() }),
+            Ok(_) => Err(TraceError::NotFinite { line, column: column(), text: text.into() }),
+            Err(_) => Err(TraceError::NotANumber { line, column: column(), text: text.into() }),
         }
     }
 
