@@ -8,7 +8,7 @@
 use std::{
     fs::File,
     io::{self, Read, Write},
-    os::fd::{FromRawFd, OwnedFd},
+    os::fd::AsRawFd,
     path::{Path, PathBuf},
     thread,
     time::{Duration, Instant},
@@ -16,6 +16,9 @@ use std::{
 
 use ekf_core::{Vec3, GRAVITY};
 use host_tests::sim::{Scenario, SimSample, Simulator};
+use nix::fcntl::{fcntl, FcntlArg, OFlag};
+use serialport::{SerialPort, TTYPort};
+
 use inemo_ahrs::{
     adc::AdcMean,
     board,
@@ -48,43 +51,25 @@ pub struct Options {
 
 /// A pseudo-terminal: the master side (ours) and the slave's path (the tool's).
 pub struct Pty {
-    /// Master side, non-blocking.
-    pub master: File,
+    /// Master side, non-blocking, with a zero timeout.
+    pub master: TTYPort,
     /// Kept open so that the master never sees a hang-up between clients.
-    _slave: OwnedFd,
+    _slave: TTYPort,
     /// Path of the slave side.
     pub path: PathBuf,
 }
 
-/// Open a pseudo-terminal in raw mode (no echo, no line-end translation).
+/// Open a pseudo-terminal (`serialport`'s `TTYPort::pair`: the slave in raw mode, no echo, no
+/// line-end translation). The master is made non-blocking, so that a write nobody reads is
+/// lost rather than waited on, as on a UART.
 pub fn open_pty() -> io::Result<Pty> {
-    let (mut m, mut s) = (-1, -1);
-    // SAFETY: openpty writes two descriptors; the name, termios and winsize are optional.
-    let r = unsafe {
-        libc::openpty(&mut m, &mut s, std::ptr::null_mut(), std::ptr::null(), std::ptr::null())
-    };
-    if r != 0 {
-        return Err(io::Error::last_os_error());
-    }
-    // SAFETY: both descriptors were just opened and are owned here only.
-    let (master, slave) = unsafe { (OwnedFd::from_raw_fd(m), OwnedFd::from_raw_fd(s)) };
-    let mut name = [0 as libc::c_char; 256];
-    // SAFETY: the buffer is valid for its length; termios is plain data.
-    unsafe {
-        if libc::ttyname_r(s, name.as_mut_ptr(), name.len()) != 0 {
-            return Err(io::Error::last_os_error());
-        }
-        let mut t: libc::termios = std::mem::zeroed();
-        if libc::tcgetattr(s, &mut t) == 0 {
-            libc::cfmakeraw(&mut t);
-            libc::tcsetattr(s, libc::TCSANOW, &t);
-        }
-        let fl = libc::fcntl(m, libc::F_GETFL);
-        libc::fcntl(m, libc::F_SETFL, fl | libc::O_NONBLOCK);
-    }
-    // SAFETY: ttyname_r wrote a NUL-terminated string.
-    let path = unsafe { std::ffi::CStr::from_ptr(name.as_ptr()) }.to_string_lossy().into_owned();
-    Ok(Pty { master: File::from(master), _slave: slave, path: PathBuf::from(path) })
+    let (mut master, slave) = TTYPort::pair()?;
+    master.set_timeout(Duration::ZERO)?;
+    let fd = master.as_raw_fd();
+    let flags = OFlag::from_bits_truncate(fcntl(fd, FcntlArg::F_GETFL)?);
+    fcntl(fd, FcntlArg::F_SETFL(flags | OFlag::O_NONBLOCK))?;
+    let path = slave.name().ok_or_else(|| io::Error::other("the pty's slave has no name"))?;
+    Ok(Pty { master, _slave: slave, path: PathBuf::from(path) })
 }
 
 /// Open an existing device or pty path for the emulator, non-blocking.
@@ -200,7 +185,7 @@ impl Board {
 }
 
 /// Write what fits; like a UART with nobody listening, the rest is lost.
-fn send(port: &mut File, bytes: &[u8]) {
+fn send(port: &mut impl Write, bytes: &[u8]) {
     let mut rest = bytes;
     while !rest.is_empty() {
         match port.write(rest) {
@@ -241,13 +226,18 @@ impl Firmware {
         }
     }
 
-    fn receive(&mut self, port: &mut File) -> io::Result<()> {
+    fn receive(&mut self, port: &mut (impl Read + Write)) -> io::Result<()> {
         let mut buf = [0u8; 256];
         loop {
             let n = match port.read(&mut buf) {
                 Ok(0) => return Ok(()),
                 Ok(n) => n,
-                Err(e) if e.kind() == io::ErrorKind::WouldBlock => return Ok(()),
+                // Nothing to read (a `TTYPort` with a zero timeout reports `TimedOut`).
+                Err(e)
+                    if matches!(e.kind(), io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut) =>
+                {
+                    return Ok(())
+                }
                 Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
                 // EIO: no slave side open (only with `--port`).
                 Err(e) if e.raw_os_error() == Some(libc::EIO) => return Ok(()),
@@ -268,7 +258,7 @@ impl Firmware {
         }
     }
 
-    fn cycle(&mut self, port: &mut File) {
+    fn cycle(&mut self, port: &mut impl Write) {
         let inputs = self.board.inputs();
         let sample = self.pipeline.conditioned_sample(&inputs);
         let step = self.pipeline.step(&inputs);
@@ -292,8 +282,9 @@ impl Firmware {
     }
 }
 
-/// Run the emulator on `port` until an I/O error (forever in practice).
-pub fn run(mut port: File, opts: &Options) -> io::Result<()> {
+/// Run the emulator on `port` (non-blocking: [`Pty::master`] or [`open_path`]'s file) until an
+/// I/O error (forever in practice).
+pub fn run(mut port: impl Read + Write, opts: &Options) -> io::Result<()> {
     let scenario = scenario_by_name(&opts.scenario).ok_or_else(|| {
         io::Error::new(io::ErrorKind::InvalidInput, format!("unknown scenario {}", opts.scenario))
     })?;

@@ -414,22 +414,25 @@ fn calibrate(port: &str, seconds: f64) -> Result<(), String> {
 }
 
 fn emulator(pty: bool, port: Option<PathBuf>, opts: &emulate::Options) -> Result<(), String> {
-    let (file, _keep) = if pty {
-        let p = emulate::open_pty().map_err(|e| format!("openpty: {e}"))?;
+    let banner = || {
+        io::stdout().flush().ok();
+        eprintln!(
+            "emulating the iNEMO AHRS firmware (scenario {}, speed {}x); Ctrl-C to stop",
+            opts.scenario, opts.speed
+        );
+    };
+    if pty {
+        let mut p = emulate::open_pty().map_err(|e| format!("openpty: {e}"))?;
         println!("{}", p.path.display());
-        (p.master.try_clone().map_err(io_err)?, Some(p))
+        banner();
+        emulate::run(&mut p.master, opts).map_err(io_err)
     } else {
         let path = port.ok_or("give --pty or --port")?;
         let f = emulate::open_path(&path).map_err(|e| format!("{}: {e}", path.display()))?;
         println!("{}", path.display());
-        (f, None)
-    };
-    io::stdout().flush().ok();
-    eprintln!(
-        "emulating the iNEMO AHRS firmware (scenario {}, speed {}x); Ctrl-C to stop",
-        opts.scenario, opts.speed
-    );
-    emulate::run(file, opts).map_err(io_err)
+        banner();
+        emulate::run(f, opts).map_err(io_err)
+    }
 }
 
 #[cfg(test)]

@@ -7,7 +7,7 @@
 //! Conventions are those of `ekf-core`: body FRD, reference NED, SI units, scalar-first
 //! Hamilton quaternion rotating body → NED, Z-Y-X Euler angles (degrees in files), the
 //! accelerometer reads specific force (a level, still board reads (0, 0, −9.81) m/s²).
-// `unsafe` only for the SSE2 intrinsics of the trace parser (`trace/sse2.rs`).
+// `unsafe` only where allowed by name: the benchmarks' thread CPU clock (`accuracy::thread_cpu_s`).
 #![deny(unsafe_code)]
 #![warn(missing_docs)]
 
