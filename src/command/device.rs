@@ -10,7 +10,6 @@ use crate::adc::DepthReading;
 use crate::nmea::{self, NmeaError, Sentence};
 use crate::persist::{self, Flash, Loaded, SaveError, Source};
 use crate::pipeline::{HeadingRef, Inputs, PipelineSettings};
-use crate::registry::ext::Ext;
 use crate::registry::{self, number, Kind, Setting, Value, ValueError, SETTINGS};
 use crate::supervision::selftest::Inputs as SelfTestInputs;
 
@@ -350,7 +349,7 @@ impl Device {
             Verb::Yaw => {
                 nargs(1)?;
                 let deg = parse_in(arg(0), YAW_RANGE_DEG)?;
-                let yaw = mathf::wrap_pi(mathf::deg(deg.to_f32()));
+                let yaw = mathf::wrap_pi(mathf::deg(deg as f32));
                 let mut out = Out::ok(name);
                 out.num(deg);
                 Ok((out, Some(Action::SetYaw(yaw))))
@@ -460,7 +459,7 @@ impl Device {
                 if self.gbias.is_some() {
                     return Err(Reason::Busy.into());
                 }
-                self.gbias = Some(GyroBiasCal::new(s.to_f32()));
+                self.gbias = Some(GyroBiasCal::new(s as f32));
                 let mut out = Out::ok(name);
                 out.field("RUN");
                 out.num(s);
@@ -576,7 +575,7 @@ impl Device {
         let position = calib::position_by_name(first).ok_or(Reason::Type)?;
         let duration = match args.len() {
             1 => ACAL_DEFAULT_S,
-            2 => parse_in(args.get(1).copied().unwrap_or(""), ACAL_RANGE_S)?.to_f32(),
+            2 => parse_in(args.get(1).copied().unwrap_or(""), ACAL_RANGE_S)? as f32,
             _ => return Err(Reason::Args.into()),
         };
         if self.acal.is_some() {
@@ -747,9 +746,9 @@ fn end_reason(end: CalEnd) -> Reason {
 }
 
 /// Parse a number in `[lo, hi]` (compared exactly, before any rounding).
-fn parse_in(text: &str, (lo, hi): (f32, f32)) -> Result<Ext, Fail> {
+fn parse_in(text: &str, (lo, hi): (f32, f32)) -> Result<f64, Fail> {
     let v = number::parse_number(text).ok_or(Reason::Type)?;
-    if v.compare(Ext::from_f32(lo)).is_ge() && v.compare(Ext::from_f32(hi)).is_le() {
+    if v >= f64::from(lo) && v <= f64::from(hi) {
         Ok(v)
     } else {
         Err(Fail(Reason::Range, Detail::Range(lo, hi)))

@@ -1,7 +1,6 @@
 //! Reply sentences: `$PINAR,OK,<verb>,...*hh` and `$PINAR,ERR,<verb or ?>,<reason>,...*hh`.
 
 use crate::nmea::Sentence;
-use crate::registry::ext::Ext;
 use crate::registry::{number, Setting, Value};
 
 /// Why a command was refused (the `<reason>` field of an `ERR` reply).
@@ -126,7 +125,7 @@ impl Out {
     }
 
     /// `,<number>` (7 significant digits).
-    pub fn num(&mut self, v: Ext) {
+    pub fn num(&mut self, v: f64) {
         let _ = self.s.push_str(",");
         let _ = number::push_number(&mut self.s, v);
     }
