@@ -54,10 +54,11 @@ fn scale10(mut x: f64, k: i32) -> f64 {
 /// else (`inf`, `nan`, hex, spaces, empty). A number too large for `f64` parses as infinite,
 /// one too small as zero; the caller checks the range.
 ///
-/// The first 19 significant digits make an integer `m`, the value is `m · 10^e`
-/// ([`scale10`]): with at most 15 significant digits and |e| ≤ 22 (every number an operator
+/// The first 19 significant digits make an integer `m`, the value is `m · 10^e` (by exact
+/// powers of ten): with at most 15 significant digits and |e| ≤ 22 (the numbers an operator
 /// types) that is one correctly rounded operation, the `f64` nearest the decimal, as
-/// `str::parse::<f64>` gives; otherwise within a few units in the last place of `f64`.
+/// `str::parse::<f64>` gives; otherwise, in `f32`'s range, within a few units in the last
+/// place of `f64`.
 pub fn parse_number(text: &str) -> Option<f64> {
     let (negative, body) = match text.as_bytes() {
         [b'-', rest @ ..] => (true, rest),
