@@ -60,49 +60,91 @@ fn scale10(mut x: f64, k: i32) -> f64 {
 /// `str::parse::<f64>` gives; otherwise, in `f32`'s range, within a few units in the last
 /// place of `f64`.
 pub fn parse_number(text: &str) -> Option<f64> {
-    let (negative, body) = match text.as_bytes() {
-        [b'-', rest @ ..] => (true, rest),
-        [b'+', rest @ ..] => (false, rest),
-        all => (false, all),
-    };
-    let mut rest = body;
-    let (mut m, mut kept, mut exp10, mut digits, mut fraction) = (0u64, 0u32, 0i32, 0u32, false);
-    while let Some(c) = take(&mut rest, move |c| c.is_ascii_digit() || (c == b'.' && !fraction)) {
-        if c == b'.' {
-            fraction = true;
-            continue;
+    Decimal::parse(text).map(Decimal::value)
+}
+
+/// A decimal number as typed: `±m · 10^exp10`, `m` its first 19 significant digits.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Decimal {
+    negative: bool,
+    m: u64,
+    exp10: i32,
+}
+
+impl Decimal {
+    /// [`parse_number`]'s grammar; the digits kept exactly.
+    pub fn parse(text: &str) -> Option<Decimal> {
+        let (negative, body) = match text.as_bytes() {
+            [b'-', rest @ ..] => (true, rest),
+            [b'+', rest @ ..] => (false, rest),
+            all => (false, all),
+        };
+        let mut rest = body;
+        let (mut m, mut kept, mut exp10, mut digits, mut fraction) =
+            (0u64, 0u32, 0i32, 0u32, false);
+        while let Some(c) = take(&mut rest, move |c| c.is_ascii_digit() || (c == b'.' && !fraction))
+        {
+            if c == b'.' {
+                fraction = true;
+                continue;
+            }
+            digits += 1;
+            if kept < MAX_DIGITS {
+                m = m * 10 + u64::from(c - b'0');
+                kept += u32::from(m > 0);
+                exp10 = exp10.saturating_sub(i32::from(fraction));
+            } else if !fraction {
+                // A dropped integer digit still scales the value.
+                exp10 = exp10.saturating_add(1);
+            }
         }
-        digits += 1;
-        if kept < MAX_DIGITS {
-            m = m * 10 + u64::from(c - b'0');
-            kept += u32::from(m > 0);
-            exp10 = exp10.saturating_sub(i32::from(fraction));
-        } else if !fraction {
-            // A dropped integer digit still scales the value.
-            exp10 = exp10.saturating_add(1);
-        }
-    }
-    if digits == 0 {
-        return None;
-    }
-    if take(&mut rest, |c| c == b'e' || c == b'E').is_some() {
-        let exp_negative = take(&mut rest, |c| c == b'+' || c == b'-') == Some(b'-');
-        let (mut e, mut exp_digits) = (0i32, 0);
-        while let Some(c) = take(&mut rest, |c| c.is_ascii_digit()) {
-            // Beyond ±400 decades the value is infinite or zero anyway.
-            e = (e * 10 + i32::from(c - b'0')).min(400);
-            exp_digits += 1;
-        }
-        if exp_digits == 0 {
+        if digits == 0 {
             return None;
         }
-        exp10 = exp10.saturating_add(if exp_negative { -e } else { e });
+        if take(&mut rest, |c| c == b'e' || c == b'E').is_some() {
+            let exp_negative = take(&mut rest, |c| c == b'+' || c == b'-') == Some(b'-');
+            let (mut e, mut exp_digits) = (0i32, 0);
+            while let Some(c) = take(&mut rest, |c| c.is_ascii_digit()) {
+                // Beyond ±400 decades the value is infinite or zero anyway.
+                e = (e * 10 + i32::from(c - b'0')).min(400);
+                exp_digits += 1;
+            }
+            if exp_digits == 0 {
+                return None;
+            }
+            exp10 = exp10.saturating_add(if exp_negative { -e } else { e });
+        }
+        if !rest.is_empty() {
+            return None;
+        }
+        Some(Decimal { negative, m, exp10 })
     }
-    if !rest.is_empty() {
-        return None;
+
+    /// The `f64` value (see [`parse_number`]).
+    pub fn value(self) -> f64 {
+        let magnitude = scale10(self.m as f64, self.exp10);
+        if self.negative {
+            -magnitude
+        } else {
+            magnitude
+        }
     }
-    let magnitude = scale10(m as f64, exp10);
-    Some(if negative { -magnitude } else { magnitude })
+
+    /// The seven significant digits, rounded half away from zero exactly (integer arithmetic on
+    /// the digits as typed; see [`digits7`]); `None` for zero.
+    fn digits7(self) -> Option<(u64, i32)> {
+        // n digits, n ≤ 19.
+        let n = self.m.checked_ilog10()? as i32 + 1;
+        let (m, e) = (self.m, self.exp10.saturating_add(n - 1));
+        let m = if n > 7 {
+            let p = 10u64.pow((n - 7) as u32);
+            let (q, r) = (m.checked_div(p)?, m.checked_rem(p)?);
+            q + u64::from(r >= p / 2)
+        } else {
+            m * 10u64.pow((7 - n) as u32)
+        };
+        Some(if m == 10_000_000 { (1_000_000, e.saturating_add(1)) } else { (m, e) })
+    }
 }
 
 /// The first byte of `rest`, consumed, if `accept` takes it.
@@ -166,18 +208,32 @@ fn digits7(a: f64) -> (u64, i32) {
 
 /// [`push_number`] into a byte buffer; returns the length.
 pub fn format_number(v: f64, out: &mut [u8; 24]) -> usize {
-    let mut w = Writer { out, len: 0 };
     if !v.is_finite() {
         return 0;
     }
-    if v == 0.0 {
+    layout(v < 0.0, (v != 0.0).then(|| digits7(v.abs())), out)
+}
+
+/// A typed number with [`SIGNIFICANT_DIGITS`] significant digits, as [`push_number`] but
+/// rounded exactly from the digits typed (`99.708795` → `99.7088`, where the `f64` read may lie
+/// on either side of the tie).
+pub fn push_decimal(s: &mut Sentence, d: Decimal) -> Result<(), NmeaError> {
+    let mut buf = [0u8; 24];
+    let n = layout(d.negative, d.digits7(), &mut buf);
+    s.push_bytes(buf.get(..n).unwrap_or(&[]))
+}
+
+/// The text of the digits `m` (`10^6 ≤ m < 10^7`) with the decimal exponent `e` of the first
+/// ([`push_number`]'s notation), or `0` for `None`; returns the length.
+fn layout(negative: bool, digits7: Option<(u64, i32)>, out: &mut [u8; 24]) -> usize {
+    let mut w = Writer { out, len: 0 };
+    let Some((mut m, e)) = digits7 else {
         w.put(b'0');
         return w.len;
-    }
-    if v < 0.0 {
+    };
+    if negative {
         w.put(b'-');
     }
-    let (mut m, e) = digits7(v.abs());
     let mut digits = [0u8; SIGNIFICANT_DIGITS as usize];
     for d in digits.iter_mut().rev() {
         *d = b'0' + (m % 10) as u8;
@@ -404,6 +460,48 @@ mod tests {
             assert_eq!(v, t.parse::<f64>().unwrap(), "{t}");
             if digits <= 8 {
                 assert_eq!(v as f32, t.parse::<f32>().unwrap(), "{t}");
+            }
+        }
+    }
+
+    fn echo(t: &str) -> String {
+        let mut s = Sentence::new();
+        push_decimal(&mut s, Decimal::parse(t).unwrap()).unwrap();
+        s.body().to_string()
+    }
+
+    /// A typed number is echoed rounded from its digits: ties away from zero, whichever side
+    /// of the tie its `f64` lies; otherwise as the `f64` prints.
+    #[test]
+    fn typed_numbers_echo_exactly() {
+        for (t, want) in [
+            ("0", "0"),
+            ("-0.0", "0"),
+            ("123", "123"),
+            ("1e-7", "1e-7"),
+            ("-12.5", "-12.5"),
+            ("99.708795", "99.7088"),
+            ("-615.00765", "-615.0077"),
+            ("41307.145", "41307.15"),
+            ("0.000012345675", "0.00001234568"),
+            ("4.99999995", "5"),
+            ("4.99999949999", "4.999999"),
+            ("9999999.5", "1e7"),
+            ("12345678901234567890123", "1.234568e22"),
+            ("0.000000000000000000000000000000123456749", "1.234567e-31"),
+        ] {
+            assert_eq!(echo(t), want, "{t}");
+        }
+        let mut rng = TestRng::new(99);
+        for _ in 0..50_000 {
+            let digits = 1 + rng.below(15) as u32;
+            let m = rng.next_u64() % 10u64.pow(digits);
+            let e = rng.below(31) as i32 - 15;
+            let t = format!("{}{m}e{e}", if rng.below(2) == 0 { "-" } else { "" });
+            let rest = m % 10u64.pow(digits.saturating_sub(7));
+            let tie = digits > 7 && rest == 5 * 10u64.pow(digits - 8);
+            if !tie {
+                assert_eq!(echo(&t), text(parse_number(&t).unwrap()), "{t}");
             }
         }
     }
