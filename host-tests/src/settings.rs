@@ -18,7 +18,6 @@ use ekf_core::lever_arm::LeverArm;
 use inemo_ahrs::command::Reason;
 use inemo_ahrs::nmea::Sentence;
 use inemo_ahrs::pipeline::PipelineSettings;
-use inemo_ahrs::registry::ext::Ext;
 use inemo_ahrs::registry::{self, number, Kind, Part, Setting, Value, ValueError, SETTINGS};
 
 use crate::config::ReplayConfig;
@@ -40,7 +39,7 @@ fn range_text(s: &Setting) -> String {
     }
     let num = |v: f32| {
         let mut buf = [0u8; 24];
-        let n = number::format_number(Ext::from_f32(v), &mut buf);
+        let n = number::format_number(f64::from(v), &mut buf);
         String::from_utf8_lossy(&buf[..n]).into_owned()
     };
     let unit = if s.unit().is_empty() { String::new() } else { format!(" {}", s.unit()) };

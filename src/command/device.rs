@@ -10,8 +10,8 @@ use crate::adc::DepthReading;
 use crate::nmea::{self, NmeaError, Sentence};
 use crate::persist::{self, Flash, Loaded, SaveError, Source};
 use crate::pipeline::{HeadingRef, Inputs, PipelineSettings};
-use crate::registry::ext::Ext;
-use crate::registry::{self, number, Kind, Setting, Value, ValueError, SETTINGS};
+use crate::registry::number::{self, Decimal};
+use crate::registry::{self, Kind, Setting, Value, ValueError, SETTINGS};
 use crate::supervision::selftest::Inputs as SelfTestInputs;
 
 /// Firmware version reported by `VER`.
@@ -350,7 +350,7 @@ impl Device {
             Verb::Yaw => {
                 nargs(1)?;
                 let deg = parse_in(arg(0), YAW_RANGE_DEG)?;
-                let yaw = mathf::wrap_pi(mathf::deg(deg.to_f32()));
+                let yaw = mathf::wrap_pi(mathf::deg(deg.value() as f32));
                 let mut out = Out::ok(name);
                 out.num(deg);
                 Ok((out, Some(Action::SetYaw(yaw))))
@@ -460,7 +460,7 @@ impl Device {
                 if self.gbias.is_some() {
                     return Err(Reason::Busy.into());
                 }
-                self.gbias = Some(GyroBiasCal::new(s.to_f32()));
+                self.gbias = Some(GyroBiasCal::new(s.value() as f32));
                 let mut out = Out::ok(name);
                 out.field("RUN");
                 out.num(s);
@@ -576,7 +576,7 @@ impl Device {
         let position = calib::position_by_name(first).ok_or(Reason::Type)?;
         let duration = match args.len() {
             1 => ACAL_DEFAULT_S,
-            2 => parse_in(args.get(1).copied().unwrap_or(""), ACAL_RANGE_S)?.to_f32(),
+            2 => parse_in(args.get(1).copied().unwrap_or(""), ACAL_RANGE_S)?.value() as f32,
             _ => return Err(Reason::Args.into()),
         };
         if self.acal.is_some() {
@@ -746,10 +746,10 @@ fn end_reason(end: CalEnd) -> Reason {
     }
 }
 
-/// Parse a number in `[lo, hi]` (compared exactly, before any rounding).
-fn parse_in(text: &str, (lo, hi): (f32, f32)) -> Result<Ext, Fail> {
-    let v = number::parse_number(text).ok_or(Reason::Type)?;
-    if v.compare(Ext::from_f32(lo)).is_ge() && v.compare(Ext::from_f32(hi)).is_le() {
+/// Parse a number in `[lo, hi]` (compared in `f64`, before the rounding to `f32`).
+fn parse_in(text: &str, (lo, hi): (f32, f32)) -> Result<Decimal, Fail> {
+    let v = Decimal::parse(text).ok_or(Reason::Type)?;
+    if (f64::from(lo)..=f64::from(hi)).contains(&v.value()) {
         Ok(v)
     } else {
         Err(Fail(Reason::Range, Detail::Range(lo, hi)))

@@ -1,8 +1,8 @@
 //! Reply sentences: `$PINAR,OK,<verb>,...*hh` and `$PINAR,ERR,<verb or ?>,<reason>,...*hh`.
 
 use crate::nmea::Sentence;
-use crate::registry::ext::Ext;
-use crate::registry::{number, Setting, Value};
+use crate::registry::number::{self, Decimal};
+use crate::registry::{Setting, Value};
 
 /// Why a command was refused (the `<reason>` field of an `ERR` reply).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -125,10 +125,10 @@ impl Out {
         let _ = self.s.push_str(text);
     }
 
-    /// `,<number>` (7 significant digits).
-    pub fn num(&mut self, v: Ext) {
+    /// `,<number>` (a number as typed, 7 significant digits).
+    pub fn num(&mut self, v: Decimal) {
         let _ = self.s.push_str(",");
-        let _ = number::push_number(&mut self.s, v);
+        let _ = number::push_decimal(&mut self.s, v);
     }
 
     /// `,<number>` (7 significant digits; empty for NaN and infinities).

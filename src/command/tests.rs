@@ -343,6 +343,46 @@ fn yaw_rate_sentences_and_raw_mode() {
     assert_eq!(run(&mut d, &mut f, "PINAC,RAW,0").0, "PINAR,OK,RAW,0");
 }
 
+/// Numbers on the command line: limits compared before any rounding, the forms the parser
+/// takes and refuses, the 7-digit echo (issue #18 replaced the number code: these pin it).
+#[test]
+fn numbers_at_the_command_line() {
+    let mut d = fresh();
+    let mut f = SimFlash::new();
+    for (arg, echo) in [
+        ("-360", "-360"),
+        ("360.0", "360"),
+        ("+.5", "0.5"),
+        ("5.", "5"),
+        ("1E2", "100"),
+        ("12.3456789", "12.34568"),
+        ("-0.000012345675", "-0.00001234568"),
+        ("1e-7", "1e-7"),
+        ("-0", "0"),
+    ] {
+        assert_eq!(
+            run(&mut d, &mut f, &format!("PINAC,YAW,{arg}")).0,
+            format!("PINAR,OK,YAW,{echo}")
+        );
+    }
+    for arg in ["360.00001", "-360.0000001", "1e3"] {
+        assert_eq!(
+            refused(&mut d, &mut f, &cmd(&format!("PINAC,YAW,{arg}"))),
+            "PINAR,ERR,YAW,range,-360,360"
+        );
+    }
+    for arg in ["1.2.3", ".", "1e", "inf", "nan", "0x10", "1,5"] {
+        let want = if arg == "1,5" { "PINAR,ERR,YAW,args" } else { "PINAR,ERR,YAW,type" };
+        assert_eq!(refused(&mut d, &mut f, &cmd(&format!("PINAC,YAW,{arg}"))), want, "{arg}");
+    }
+    // A setting in other units than its internal ones: typed in degrees, kept in radians,
+    // printed back in degrees.
+    let (r, _) = run(&mut d, &mut f, "PINAC,SET,init.gyro_bias,0.1,-2.5e-3,12.345678");
+    assert_eq!(r, "PINAR,OK,SET,init.gyro_bias,0.1,-0.0025,12.34568");
+    let (r, _) = run(&mut d, &mut f, "PINAC,GET,init.gyro_bias");
+    assert_eq!(r, "PINAR,OK,GET,init.gyro_bias,0.1,-0.0025,12.34568");
+}
+
 #[test]
 fn zero_depth_uses_the_latest_reading() {
     let mut d = fresh();

@@ -44,9 +44,9 @@ pub fn round_scaled(value: f32, decimals: u8) -> Option<i64> {
     if !(mathf::abs(s) < 4.0e18) {
         return None;
     }
-    // Below 2^23 (in `i32` range): truncation toward zero, then the fraction, exactly (t and
-    // s are within a factor of two, or t = 0). From 2^23 on, s is an integer: read from its
-    // bits (no 64-bit float conversion, which the soft-float library does through `f64`).
+    // Below 2^23 (the common case, in `i32`): truncation toward zero, then the fraction,
+    // exactly (t and s are within a factor of two, or t = 0). From 2^23 on, s is an integer,
+    // exact in `i64`.
     if mathf::abs(s) < 8_388_608.0 {
         let t = s as i32;
         let frac = s - t as f32;
@@ -59,10 +59,7 @@ pub fn round_scaled(value: f32, decimals: u8) -> Option<i64> {
             t
         });
     }
-    // 2^23 ≤ |s| < 4·10^18 < 2^62: biased exponent 150..=188.
-    let b = s.to_bits();
-    let mag = i64::from(b & 0x7F_FFFF | 0x80_0000) << (((b >> 23) & 0xFF).saturating_sub(150) & 63);
-    Some(if b >> 31 != 0 { -mag } else { mag })
+    Some(s as i64)
 }
 
 impl Sentence {

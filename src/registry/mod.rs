@@ -9,15 +9,12 @@
 //!
 //! Units. The wire uses the operator's units — degrees, °/s, °/h, g, mV/(°/s) — written in
 //! ASCII ([`Setting::unit`]: `deg`, `deg/s`, `deg/h`, ...). `PipelineSettings` stores SI/rad
-//! values; [`Setting::scale`] converts (`user = internal · scale`, computed in [`ext::Ext`]:
-//! a 64-bit mantissa in integer arithmetic, no `f64` soft-float on the target). Ranges
+//! values; [`Setting::scale`] converts (`user = internal · scale`, computed in `f64`). Ranges
 //! ([`Setting::min`], [`Setting::max`]) are in user units, inclusive, and apply to every
 //! component of a vector. Values are printed with 7 significant digits
 //! ([`number::push_number`]); flash keeps the internal `f32` bits, so a save and a load are
 //! exact.
 
-mod decimal;
-pub mod ext;
 pub mod number;
 mod slot;
 mod table;
@@ -26,8 +23,6 @@ pub use table::SETTINGS;
 
 use ekf_core::axis_map::AxisMap;
 use ekf_core::mathf;
-
-use ext::Ext;
 
 use crate::nmea::{NmeaError, Sentence};
 use crate::settings::PipelineSettings;
@@ -165,6 +160,9 @@ pub enum Scale {
 }
 
 impl Scale {
+    /// Every scale.
+    pub const ALL: [Scale; 5] = [Scale::One, Scale::Deg, Scale::Deg2, Scale::DegH, Scale::Milli];
+
     /// The factor (a constant: for the documentation and the host).
     pub const fn factor(self) -> f64 {
         const DEG2: f64 = DEG * DEG;
@@ -181,27 +179,14 @@ impl Scale {
     /// The scale whose factor is `f` (for the table, at compile time: another factor fails
     /// the build).
     const fn of(f: f64) -> Scale {
-        let all = [Scale::One, Scale::Deg, Scale::Deg2, Scale::DegH, Scale::Milli];
         let mut i = 0;
-        while i < all.len() {
-            if all[i].factor() == f {
-                return all[i];
+        while i < Scale::ALL.len() {
+            if Scale::ALL[i].factor() == f {
+                return Scale::ALL[i];
             }
             i += 1;
         }
         panic!("scale missing from Scale")
-    }
-
-    /// The factor, exactly, for the integer arithmetic of [`Ext`].
-    pub fn ext(self) -> Ext {
-        const EXT: [Ext; 5] = [
-            Ext::from_f64(Scale::One.factor()),
-            Ext::from_f64(Scale::Deg.factor()),
-            Ext::from_f64(Scale::Deg2.factor()),
-            Ext::from_f64(Scale::DegH.factor()),
-            Ext::from_f64(Scale::Milli.factor()),
-        ];
-        EXT.get(self as usize).copied().unwrap_or(Ext::ZERO)
     }
 }
 
@@ -253,9 +238,9 @@ impl Setting {
         (self.min, self.max)
     }
 
-    /// [`Setting::scale`], exactly.
-    pub fn scale_ext(&self) -> Ext {
-        self.scale.ext()
+    /// [`Setting::scale`]'s factor.
+    pub fn scale_factor(&self) -> f64 {
+        self.scale.factor()
     }
 
     /// Unit as shown to the operator, ASCII (empty: dimensionless or not a number).
@@ -299,7 +284,7 @@ impl Setting {
         let slack = 1e-6 * mathf::abs(min).max(mathf::abs(max)).max(1.0);
         let in_range = |x: f32| {
             x.is_finite() && {
-                let u = Ext::from_f32(x).times(self.scale_ext()).to_f32();
+                let u = (f64::from(x) * self.scale_factor()) as f32;
                 u >= min - slack && u <= max + slack
             }
         };
@@ -365,11 +350,11 @@ impl Setting {
     fn parse_scaled(&self, text: &str) -> Result<f32, ValueError> {
         let u = number::parse_number(text).ok_or(ValueError::Type)?;
         // In `f32`: the limits are `f32` (a value typed as the limit passes).
-        let user = u.to_f32();
+        let user = u as f32;
         if !(user.is_finite() && user >= self.min && user <= self.max) {
             return Err(ValueError::Range);
         }
-        let internal = u.over(self.scale_ext()).to_f32();
+        let internal = (u / self.scale_factor()) as f32;
         if !internal.is_finite() {
             return Err(ValueError::Range);
         }
@@ -379,13 +364,13 @@ impl Setting {
     /// Append `v` (internal units) as comma-separated fields in user units.
     pub fn write_value(&self, v: &Value, out: &mut Sentence) -> Result<(), NmeaError> {
         match *v {
-            Value::F32(x) => number::push_scaled(out, x, self.scale_ext()),
+            Value::F32(x) => number::push_scaled(out, x, self.scale_factor()),
             Value::Vec3(x) => {
                 for (i, c) in x.iter().enumerate() {
                     if i > 0 {
                         out.push_str(",")?;
                     }
-                    number::push_scaled(out, *c, self.scale_ext())?;
+                    number::push_scaled(out, *c, self.scale_factor())?;
                 }
                 Ok(())
             }
@@ -510,8 +495,8 @@ impl Setting {
         let (nl, nh) = if range {
             let (min, max) = self.range();
             (
-                number::format_number(Ext::from_f32(min), &mut lo),
-                number::format_number(Ext::from_f32(max), &mut hi),
+                number::format_number(f64::from(min), &mut lo),
+                number::format_number(f64::from(max), &mut hi),
             )
         } else {
             (0, 0)
