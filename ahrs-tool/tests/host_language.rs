@@ -181,25 +181,27 @@ fn device_estimates(path: &std::path::Path) -> std::collections::HashMap<String,
 ///
 /// The tolerance. `$PRDID` prints 2 decimals: ±0.005°. The replay's samples are the device's
 /// rounded to the raw sentences' decimals (gyro ±5e-6 rad/s, specific force ±5e-5 m/s²), so
-/// its estimate is not bit for bit the device's. Measured over 30 s of the `coupled` scenario
-/// (three runs): during the initialisation window the largest difference is 0.0050° (the
-/// print's rounding alone), from the second after the window's end 0.0052° (0.0002° from the
-/// samples' rounding): allowed 0.005° + 0.001°. In the first second after the window the
-/// estimator converges from a wide covariance and amplifies the samples' rounding: 0.016 to
-/// 0.019° measured, and replaying the same log with rounding-sized noise added to every sample
-/// (uniform ±5e-6 rad/s, ±5e-5 m/s²) moves the replay by up to 0.038° there: allowed 0.005° +
-/// 0.04°. The faults this guards against cost far more (tried by hand): a device that does not
-/// restart, a second lever arm in the replay, a header setting left out.
+/// its estimate is not bit for bit the device's. Measured on the `coupled` scenario with these
+/// settings (four 60 s logs): during the initialisation window the largest difference is
+/// 0.0050° (the print's rounding alone); from 1.5 s after the window's end 0.0054° (the
+/// samples' rounding adds up to 0.0004°, growing slowly with time): allowed 0.005° + 0.002°.
+/// Right after the window the estimator converges from a wide covariance and amplifies the
+/// samples' rounding: up to 0.037° in the first half second, 0.009° in the next, 0.0054° after
+/// one second; and replaying a log with rounding-sized noise added to every sample (uniform
+/// ±5e-6 rad/s, ±5e-5 m/s²) moved the replay by up to 0.038° there: allowed 0.005° + 0.04° in
+/// the first 2 s after the window. The faults this guards against cost more (tried by hand,
+/// on 30 s logs): a device that does not restart 1.3°, a second lever arm in the replay 0.048°,
+/// the header's `ekf.accel_var_scale` left out 0.050°, its `init.yaw0` left out 30°.
 #[test]
 fn a_restarted_log_replays_to_the_devices_own_estimates() {
     use ekf_core::{conditioning::Conditioner, Euler, Flags, Quaternion};
     use host_tests::replay::{replay_rows, wrap_deg, FilterKind};
 
     let emu = Emulator::start(&["--scenario", "coupled"]);
-    // Settings that matter: a lever arm (applied once, by the device), a gate and an initial
-    // heading the replay must take from the log's header.
+    // Settings that matter: a lever arm (applied once, by the device), the accelerometer's
+    // weight and an initial heading the replay must take from the log's header.
     emu.send_ok(&["SET", "lever.r", "0.8,-0.4,0.3"]);
-    emu.send_ok(&["SET", "gate.jump", "0.3"]);
+    emu.send_ok(&["SET", "ekf.accel_var_scale", "4"]);
     emu.send_ok(&["SET", "init.yaw0", "30"]);
     let dir = tempfile::tempdir().unwrap();
     let csv = dir.path().join("dive.csv");
@@ -271,7 +273,7 @@ fn a_restarted_log_replays_to_the_devices_own_estimates() {
     )
     .unwrap();
     eprintln!(
-        "largest replay-vs-device difference {:.4}° ({}) in the second after the window, \
+        "largest replay-vs-device difference {:.4}° ({}) in the 2 s after the window, \
          {:.4}° ({}) elsewhere; {compared} rows",
         worst[0], worst_at[0], worst[1], worst_at[1]
     );
@@ -279,5 +281,5 @@ fn a_restarted_log_replays_to_the_devices_own_estimates() {
     assert!(window_end.is_some(), "the window never ended");
     assert!(moved > 5.0, "the scenario moved the board after the window: {moved}°");
     assert!(worst[0] <= 0.005 + 0.04, "{}° at {}", worst[0], worst_at[0]);
-    assert!(worst[1] <= 0.005 + 0.001, "{}° at {}", worst[1], worst_at[1]);
+    assert!(worst[1] <= 0.005 + 0.002, "{}° at {}", worst[1], worst_at[1]);
 }
