@@ -456,6 +456,7 @@ mod tests {
         std::fs::write(&path, text).unwrap();
         let meta = TraceMeta::read(&path).unwrap();
         assert!(meta.lever_applied());
+        assert!(!meta.restarted, "no `# estimator: restarted` line");
         let base = ReplayConfig::default();
         let mut rs = ReplaySettings::new(device_form(&base));
         rs.apply_trace(&meta, "log.csv").unwrap();
@@ -468,5 +469,10 @@ mod tests {
             rs.notes(),
             ["not applied: lever.r (the trace says its samples already had the lever arm)"]
         );
+        // `ahrs-tool log --restart`'s line.
+        let text = std::fs::read_to_string(&path).unwrap();
+        let (head, rest) = text.split_once('\n').unwrap();
+        std::fs::write(&path, format!("{head}\n# {META_RESTARTED}\n{rest}")).unwrap();
+        assert!(TraceMeta::read(&path).unwrap().restarted);
     }
 }
