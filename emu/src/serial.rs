@@ -214,6 +214,7 @@ mod tests {
     extern crate std;
     use std::{string::String, vec::Vec};
 
+    use ekf_core::AttitudeFilter;
     use inemo_ahrs::persist::SimFlash;
 
     use super::*;
@@ -265,6 +266,29 @@ mod tests {
         let mut fw = SerialFirmware::boot(&mut flash, "PIN");
         assert!(command(&mut fw, "GET,gate.jump").contains("OK,GET,gate.jump,0.07*"));
         assert!(command(&mut fw, "STATUS").starts_with("$PINAR,OK,STATUS,A,1,PIN,"));
+    }
+
+    #[test]
+    fn raw_mode_2_restarts_the_estimator_and_sends_each_cycles_prdid() {
+        let mut flash = SimFlash::new();
+        let mut fw = SerialFirmware::boot(&mut flash, "POR");
+        let mut tx = Capture::default();
+        for _ in 0..600 {
+            fw.cycle(0, &mut tx);
+        }
+        assert!(fw.pipeline.ekf().is_initialised());
+        assert!(command(&mut fw, "RAW,2").starts_with("$PINAR,OK,RAW,2*"));
+        assert!(!fw.pipeline.ekf().is_initialised(), "a new initialisation window");
+        let mut tx = Capture::default();
+        for _ in 0..3 {
+            fw.cycle(0, &mut tx);
+        }
+        let text = String::from_utf8(tx.0).unwrap();
+        let kinds: Vec<&str> = text.lines().map(|l| l.get(..6).unwrap_or(l)).collect();
+        assert_eq!(kinds, ["$PINAW", "$PINAX", "$PRDID"].repeat(3), "{text}");
+        assert!(text.starts_with("$PINAW,0.0200,"), "t restarts with the estimator: {text}");
+        let status = command(&mut fw, "STATUS");
+        assert!(status.contains(",0005,"), "STATUS flags: no record, raw mode: {status}");
     }
 
     #[test]
