@@ -3,7 +3,8 @@
 //! - `live <port>`: attitude and depth from `$PINAH` / `$PRDID`, one refreshing line;
 //! - `send <port> <COMMAND...>`: one `$PINAC` command, print the `$PINAR` reply;
 //! - `log <port> --out trace.csv`: raw mode into the trace CSV format, the device's settings in
-//!   its header;
+//!   its header; `--restart` (`RAW,2`): the device's estimator restarted at the first row, so
+//!   that a replay reproduces its estimates (`--device-estimates FILE` records them);
 //! - `settings get|put <port>`: the device's settings to a `NAME=VALUE` file and back;
 //! - `calibrate <port>`: interactive six-position accelerometer calibration;
 //! - `emulate --pty`: the firmware library on the host behind a pseudo-terminal;
@@ -67,7 +68,8 @@ enum Cmd {
         #[arg(long)]
         wait_late: Option<f64>,
     },
-    /// Log raw mode (`$PINAW` / `$PINAX`) into a trace CSV (`host-tests replay` reads it).
+    /// Log raw mode (`$PINAW` / `$PINAX`) into a trace CSV (`host-tests replay` reads it);
+    /// `--restart` makes the log replay to the device's own estimates.
     Log {
         /// Serial port.
         port: String,
