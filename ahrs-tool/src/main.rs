@@ -308,11 +308,30 @@ fn log(
     // What the samples already had applied and the device's settings (`host-tests replay`
     // applies them, and no conditioning twice); read before the file is created.
     let header = settings_cmd::log_comments(&mut link)?;
-    let file = File::create(out).map_err(|e| format!("cannot create {}: {e}", out.display()))?;
+    let existed = out.exists();
+    // Not truncated yet: a refusal below leaves an existing file as it was.
+    let file = File::options()
+        .write(true)
+        .create(true)
+        .truncate(false)
+        .open(out)
+        .map_err(|e| format!("cannot create {}: {e}", out.display()))?;
+    if let Some(p) = estimates_path {
+        // Two outputs, never the same file (through any path or link: `out` exists now).
+        if refuse_overwriting_inputs(p, &[out]).is_err() {
+            if !existed {
+                let _ = std::fs::remove_file(out);
+            }
+            return Err(format!(
+                "--device-estimates {} is the --out file {}: refusing to write both into one",
+                p.display(),
+                out.display()
+            ));
+        }
+    }
+    file.set_len(0).map_err(|e| format!("cannot write {}: {e}", out.display()))?;
     let mut estimates = match estimates_path {
         Some(p) => {
-            // Two outputs: never the same file.
-            refuse_overwriting_inputs(p, &[out]).map_err(io_err)?;
             let f = File::create(p).map_err(|e| format!("cannot create {}: {e}", p.display()))?;
             let mut w = BufWriter::new(f);
             writeln!(w, "t,roll,pitch,yaw").map_err(io_err)?;

@@ -282,4 +282,21 @@ fn a_restarted_log_replays_to_the_devices_own_estimates() {
     assert!(moved > 5.0, "the scenario moved the board after the window: {moved}°");
     assert!(worst[0] <= 0.005 + 0.04, "{}° at {}", worst[0], worst_at[0]);
     assert!(worst[1] <= 0.005 + 0.002, "{}° at {}", worst[1], worst_at[1]);
+
+    // The two outputs are never one file (here through another path): refused, the log kept.
+    let before = std::fs::read(&csv).unwrap();
+    let same = dir.path().join(".").join("dive.csv");
+    let o = emu.tool(&[
+        "log",
+        "--out",
+        csv.to_str().unwrap(),
+        "--seconds",
+        "0.2",
+        "--restart",
+        "--device-estimates",
+        same.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("is the --out file"), "{}", stderr(&o));
+    assert_eq!(std::fs::read(&csv).unwrap(), before);
 }
