@@ -579,6 +579,9 @@ mod firmware {
                         defmt::println!("filter rate {=u16} Hz", settings.filter_rate_hz);
                     }
                 }
+                if pending.restart {
+                    pipeline.restart();
+                }
                 if let Some(yaw) = pending.yaw {
                     pipeline.set_yaw(yaw);
                 }
@@ -598,7 +601,7 @@ mod firmware {
                             None,
                         );
                     }
-                    let mut out = c.device.on_cycle(&inputs, &sample);
+                    let mut out = c.device.on_cycle(&inputs, &sample, step.attitude);
                     c.record(out.reply.take(), out.action.take());
                     if raw {
                         transmit(tx, out.raw_sentences(), &mut c.replies, budget);

@@ -140,6 +140,22 @@ impl Pipeline {
         self.rot_yaw = None;
     }
 
+    /// Restart the estimator as at power-up (`RAW,2`): a fresh `Ekf` with the current
+    /// settings, whose initialisation window starts with the next [`Pipeline::step`]; the
+    /// conditioner's history cleared (the lever arm's previous rate); the heading referenced
+    /// to `init.yaw0` again (relative) and no rate of turn until the next output after it.
+    ///
+    /// Kept: the settings, the last depth and the output schedule (the cycle count that
+    /// decimates the sentences to the output rate).
+    pub fn restart(&mut self) {
+        self.conditioner = Conditioner::new(self.settings.conditioning);
+        self.ekf = Ekf::new(self.settings.filter);
+        self.heading_ref = HeadingRef::Relative;
+        self.interval_status = Status::NONE;
+        self.rot_yaw = None;
+        self.rot_time_s = 0.0;
+    }
+
     /// The settings in use.
     pub fn settings(&self) -> &PipelineSettings {
         &self.settings

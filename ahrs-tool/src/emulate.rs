@@ -215,6 +215,7 @@ impl Firmware {
                 }
             }
             Some(Action::SetYaw(yaw)) => self.pipeline.set_yaw(yaw),
+            Some(Action::RestartEstimator) => self.pipeline.restart(),
             None => {}
         }
     }
@@ -263,7 +264,7 @@ impl Firmware {
         let sample = self.pipeline.conditioned_sample(&inputs);
         let step = self.pipeline.step(&inputs);
         self.device.set_heading_ref(step.heading_ref);
-        let out = self.device.on_cycle(&inputs, &sample);
+        let out = self.device.on_cycle(&inputs, &sample, step.attitude);
         let mut bytes = Vec::with_capacity(256);
         if let Some(reply) = &out.reply {
             bytes.extend_from_slice(reply.as_bytes());

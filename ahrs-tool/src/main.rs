@@ -3,7 +3,8 @@
 //! - `live <port>`: attitude and depth from `$PINAH` / `$PRDID`, one refreshing line;
 //! - `send <port> <COMMAND...>`: one `$PINAC` command, print the `$PINAR` reply;
 //! - `log <port> --out trace.csv`: raw mode into the trace CSV format, the device's settings in
-//!   its header;
+//!   its header; `--restart` (`RAW,2`): the device's estimator restarted at the first row, so
+//!   that a replay reproduces its estimates (`--device-estimates FILE` records them);
 //! - `settings get|put <port>`: the device's settings to a `NAME=VALUE` file and back;
 //! - `calibrate <port>`: interactive six-position accelerometer calibration;
 //! - `emulate --pty`: the firmware library on the host behind a pseudo-terminal;
@@ -19,7 +20,7 @@ mod settings_cmd;
 use std::{
     fs::File,
     io::{self, BufRead, BufWriter, IsTerminal, Write},
-    path::PathBuf,
+    path::{Path, PathBuf},
     process::ExitCode,
     sync::atomic::{AtomicBool, Ordering},
     time::{Duration, Instant},
@@ -28,6 +29,8 @@ use std::{
 use clap::{Parser, Subcommand};
 use ekf_core::accel_calibration::{Position, SixPositionFit};
 use ekf_core::Vec3;
+use host_tests::output::refuse_overwriting_inputs;
+use host_tests::settings::META_RESTARTED;
 use host_tests::trace::{TraceColumns, TraceWriter};
 use inemo_ahrs::command::POSITION_NAMES;
 use link::{command_body, Link, Reply};
@@ -65,7 +68,8 @@ enum Cmd {
         #[arg(long)]
         wait_late: Option<f64>,
     },
-    /// Log raw mode (`$PINAW` / `$PINAX`) into a trace CSV (`host-tests replay` reads it).
+    /// Log raw mode (`$PINAW` / `$PINAX`) into a trace CSV (`host-tests replay` reads it);
+    /// `--restart` makes the log replay to the device's own estimates.
     Log {
         /// Serial port.
         port: String,
@@ -75,6 +79,15 @@ enum Cmd {
         /// Stop after this many seconds (default: until Ctrl-C).
         #[arg(long)]
         seconds: Option<f64>,
+        /// Restart the device's estimator at the first row (`RAW,2`): a replay of the log
+        /// from its first row, with the settings of its header, then reproduces the device's
+        /// estimates. The header says so.
+        #[arg(long)]
+        restart: bool,
+        /// With --restart: write the device's estimate from every row's sample (its `$PRDID`)
+        /// to this CSV: `t,roll,pitch,yaw`, degrees as the device printed them.
+        #[arg(long, value_name = "FILE", requires = "restart")]
+        device_estimates: Option<PathBuf>,
     },
     /// Save a device's settings to a file, or send a file's settings to a device (`NAME=VALUE`
     /// lines, the device's names and units: `host-tests replay --settings` reads them too).
@@ -185,7 +198,9 @@ fn main() -> ExitCode {
         Cmd::Send { port, command, timeout, wait_late } => {
             return send(&port, &command, timeout, wait_late);
         }
-        Cmd::Log { port, out, seconds } => log(&port, &out, seconds),
+        Cmd::Log { port, out, seconds, restart, device_estimates } => {
+            log(&port, &out, seconds, restart, device_estimates.as_deref())
+        }
         Cmd::Calibrate { port, seconds } => calibrate(&port, seconds),
         Cmd::Bridge { port, udp, tcp, seconds } => {
             catch_ctrl_c();
@@ -282,31 +297,81 @@ fn expect_ok(link: &mut Link, body: &str) -> Result<Reply, String> {
     Err(format!("no reply to {body}"))
 }
 
-fn log(port: &str, out: &PathBuf, seconds: Option<f64>) -> Result<(), String> {
+fn log(
+    port: &str,
+    out: &Path,
+    seconds: Option<f64>,
+    restart: bool,
+    estimates_path: Option<&Path>,
+) -> Result<(), String> {
     let mut link = Link::open(port)?;
     // What the samples already had applied and the device's settings (`host-tests replay`
     // applies them, and no conditioning twice); read before the file is created.
     let header = settings_cmd::log_comments(&mut link)?;
-    let file = File::create(out).map_err(|e| format!("cannot create {}: {e}", out.display()))?;
+    let existed = out.exists();
+    // Not truncated yet: a refusal below leaves an existing file as it was.
+    let file = File::options()
+        .write(true)
+        .create(true)
+        .truncate(false)
+        .open(out)
+        .map_err(|e| format!("cannot create {}: {e}", out.display()))?;
+    if let Some(p) = estimates_path {
+        // Two outputs, never the same file (through any path or link: `out` exists now).
+        if refuse_overwriting_inputs(p, &[out]).is_err() {
+            if !existed {
+                let _ = std::fs::remove_file(out);
+            }
+            return Err(format!(
+                "--device-estimates {} is the --out file {}: refusing to write both into one",
+                p.display(),
+                out.display()
+            ));
+        }
+    }
+    file.set_len(0).map_err(|e| format!("cannot write {}: {e}", out.display()))?;
+    let mut estimates = match estimates_path {
+        Some(p) => {
+            let f = File::create(p).map_err(|e| format!("cannot create {}: {e}", p.display()))?;
+            let mut w = BufWriter::new(f);
+            writeln!(w, "t,roll,pitch,yaw").map_err(io_err)?;
+            Some(w)
+        }
+        None => None,
+    };
     let cols = TraceColumns { mag: true, depth: true, truth: false };
     let mut writer = TraceWriter::new(BufWriter::new(file), cols).map_err(io_err)?;
     writer.comment(&format!("raw mode log from {port} by ahrs-tool")).map_err(io_err)?;
     for c in header {
         writer.comment(&c).map_err(io_err)?;
     }
+    if restart {
+        writer.comment(META_RESTARTED).map_err(io_err)?;
+    }
     catch_ctrl_c();
-    expect_ok(&mut link, "RAW,1")?;
+    // `RAW,2` restarts the estimator and the time; the rows after its reply are the new
+    // estimator's, from its first sample (`t` one period).
+    expect_ok(&mut link, if restart { "RAW,2" } else { "RAW,1" })?;
     let end = seconds.map(|s| Instant::now() + secs(s));
     let mut joiner = raw::RawJoiner::default();
+    let mut gaps = GapCount::default();
     let mut rows = 0u64;
     let mut result = Ok(());
+    let mut write = |logged: raw::Logged| -> Result<(), String> {
+        writer.row(&logged.row).map_err(io_err)?;
+        gaps.push(logged.row.t);
+        if let (Some(w), Some(d)) = (estimates.as_mut(), &logged.device) {
+            writeln!(w, "{:.4},{},{},{}", logged.row.t, d.roll, d.pitch, d.yaw).map_err(io_err)?;
+        }
+        rows += 1;
+        Ok(())
+    };
     while !INTERRUPTED.load(Ordering::SeqCst) && end.is_none_or(|e| Instant::now() < e) {
         let deadline = Instant::now() + Duration::from_millis(200);
         match link.next_sentence(deadline) {
             Ok(Some((body, _))) => {
-                if let Some(row) = joiner.push(&body) {
-                    writer.row(&row).map_err(io_err)?;
-                    rows += 1;
+                if let Some(logged) = joiner.push(&body) {
+                    write(logged)?;
                 }
             }
             Ok(None) => {}
@@ -316,14 +381,57 @@ fn log(port: &str, out: &PathBuf, seconds: Option<f64>) -> Result<(), String> {
             }
         }
     }
-    if let Some(row) = joiner.finish() {
-        writer.row(&row).map_err(io_err)?;
-        rows += 1;
+    if let Some(logged) = joiner.finish() {
+        write(logged)?;
     }
     writer.finish().map_err(io_err)?;
+    if let Some(mut w) = estimates {
+        w.flush().map_err(io_err)?;
+    }
     let off = expect_ok(&mut link, "RAW,0");
     eprintln!("{rows} rows written to {} ({} raw cycles skipped)", out.display(), joiner.skipped);
+    if restart && gaps.missing > 0 {
+        eprintln!(
+            "warning: {} cycles missing (first after t = {:.4} s): a replay reproduces the \
+             device's estimates only up to there",
+            gaps.missing,
+            gaps.first_after.unwrap_or(0.0)
+        );
+    }
     result.and(off.map(|_| ()))
+}
+
+/// Cycles missing from a log: gaps in `t` longer than 1.5 times the spacing of its first two
+/// rows (the filter period).
+#[derive(Default)]
+struct GapCount {
+    first: Option<f64>,
+    period: Option<f64>,
+    last: Option<f64>,
+    missing: u64,
+    first_after: Option<f64>,
+}
+
+impl GapCount {
+    fn push(&mut self, t: f64) {
+        match (self.first, self.period, self.last) {
+            (None, _, _) => self.first = Some(t),
+            (Some(first), None, _) => {
+                self.period = Some(t - first);
+                // `RAW,2` restarts `t`: the first row is one period after the restart.
+                if t - first < first - 1e-6 {
+                    self.missing += ((first / (t - first)).round() as u64).saturating_sub(1);
+                    self.first_after.get_or_insert(0.0);
+                }
+            }
+            (Some(_), Some(p), Some(last)) if p > 0.0 && t - last > 1.5 * p => {
+                self.missing += ((t - last) / p).round() as u64 - 1;
+                self.first_after.get_or_insert(last);
+            }
+            _ => {}
+        }
+        self.last = Some(t);
+    }
 }
 
 /// Human description of a calibration position.

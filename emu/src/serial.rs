@@ -4,10 +4,11 @@
 //! - Every filter cycle: the next record of the embedded trace (looping), with
 //!   [`DEPTH_M`] added to its depth and `dt` = 1 / filter rate, goes through
 //!   `Pipeline::conditioned_sample`, `Pipeline::step` and `Device::on_cycle`; the cycle's late
-//!   reply, then its `$PRDID`/`$PINAH` (or, in raw mode, `$PINAW`/`$PINAX`) go to [`Tx`].
+//!   reply, then its `$PRDID`/`$PINAH` (or, in raw mode, `$PINAW`/`$PINAX`, and with `RAW,2`
+//!   the cycle's `$PRDID`) go to [`Tx`].
 //! - Every received byte goes through `LineAssembler` and `Device::handle` (with the flash);
 //!   the reply goes to [`Tx`] and the action is applied (`ApplySettings` →
-//!   `Pipeline::apply_settings`, `SetYaw` → `set_yaw`).
+//!   `Pipeline::apply_settings`, `SetYaw` → `set_yaw`, `RestartEstimator` → `restart`).
 //! - A cooperative operator for the six-position calibration: when a command `ACAL,<position>`
 //!   passes, the board is held still in that position (gravity along the named LSM303DLH
 //!   axis, a little noise, no rotation) until any other command (`ACAL,CLEAR`, the `SET`s of
@@ -101,7 +102,7 @@ impl<'f, F: Flash> SerialFirmware<'f, F> {
         let sample = self.pipeline.conditioned_sample(&inputs);
         let step = self.pipeline.step(&inputs);
         self.device.set_heading_ref(step.heading_ref);
-        let out = self.device.on_cycle(&inputs, &sample);
+        let out = self.device.on_cycle(&inputs, &sample, step.attitude);
         if let Some(reply) = &out.reply {
             tx.send(reply.as_bytes());
         }
@@ -123,6 +124,7 @@ impl<'f, F: Flash> SerialFirmware<'f, F> {
                 self.pipeline.apply_settings(*self.device.settings())
             }
             Some(Action::SetYaw(yaw)) => self.pipeline.set_yaw(yaw),
+            Some(Action::RestartEstimator) => self.pipeline.restart(),
             None => {}
         }
     }
@@ -212,6 +214,7 @@ mod tests {
     extern crate std;
     use std::{string::String, vec::Vec};
 
+    use ekf_core::AttitudeFilter;
     use inemo_ahrs::persist::SimFlash;
 
     use super::*;
@@ -263,6 +266,29 @@ mod tests {
         let mut fw = SerialFirmware::boot(&mut flash, "PIN");
         assert!(command(&mut fw, "GET,gate.jump").contains("OK,GET,gate.jump,0.07*"));
         assert!(command(&mut fw, "STATUS").starts_with("$PINAR,OK,STATUS,A,1,PIN,"));
+    }
+
+    #[test]
+    fn raw_mode_2_restarts_the_estimator_and_sends_each_cycles_prdid() {
+        let mut flash = SimFlash::new();
+        let mut fw = SerialFirmware::boot(&mut flash, "POR");
+        let mut tx = Capture::default();
+        for _ in 0..600 {
+            fw.cycle(0, &mut tx);
+        }
+        assert!(fw.pipeline.ekf().is_initialised());
+        assert!(command(&mut fw, "RAW,2").starts_with("$PINAR,OK,RAW,2*"));
+        assert!(!fw.pipeline.ekf().is_initialised(), "a new initialisation window");
+        let mut tx = Capture::default();
+        for _ in 0..3 {
+            fw.cycle(0, &mut tx);
+        }
+        let text = String::from_utf8(tx.0).unwrap();
+        let kinds: Vec<&str> = text.lines().map(|l| l.get(..6).unwrap_or(l)).collect();
+        assert_eq!(kinds, ["$PINAW", "$PINAX", "$PRDID"].repeat(3), "{text}");
+        assert!(text.starts_with("$PINAW,0.0200,"), "t restarts with the estimator: {text}");
+        let status = command(&mut fw, "STATUS");
+        assert!(status.contains(",0005,"), "STATUS flags: no record, raw mode: {status}");
     }
 
     #[test]

@@ -230,10 +230,12 @@ fn replay_config(
     let (base, foreign_line) =
         if o.foreign { foreign_config(given) } else { (ReplayConfig::default(), String::new()) };
     let mut rs = ReplaySettings::new(device_form(&base));
+    let mut restart_note = None;
     // A regular file only: reading a pipe's header here would take it from the replay.
     if std::fs::metadata(trace).is_ok_and(|m| m.is_file()) {
         let meta = TraceMeta::read(trace).map_err(|e| format!("{}: {e}", trace.display()))?;
         rs.apply_trace(&meta, &trace.display().to_string())?;
+        restart_note = restart_note_for(&meta);
     }
     for path in &o.settings {
         for (_, a) in read_settings_file(path)? {
@@ -260,7 +262,29 @@ fn replay_config(
         ));
     }
     notes.extend(rs.notes());
+    notes.extend(restart_note);
     Ok((cfg, foreign_line, notes))
+}
+
+/// For a device's log (its header has the device's settings): whether the replay can be
+/// compared with the device's own estimates.
+fn restart_note_for(meta: &TraceMeta) -> Option<String> {
+    if meta.restarted {
+        Some(
+            "trace header: the device's estimator restarted at the first row: the replay \
+             reproduces the device's estimates"
+                .into(),
+        )
+    } else if !meta.settings.is_empty() {
+        Some(
+            "trace header: the device's estimator ran before the log's first row: the \
+             replay's estimates are not the device's (ahrs-tool log --restart records a \
+             comparable log)"
+                .into(),
+        )
+    } else {
+        None
+    }
 }
 
 fn run_replay(

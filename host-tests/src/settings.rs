@@ -182,12 +182,20 @@ pub struct TraceMeta {
     /// The words of the `# conditioned: ...` line: the conditioning already applied to the
     /// samples (`axes`, `gyro.offset`, `accel_cal`, `lever`).
     pub conditioned: Vec<String>,
+    /// The `# estimator: restarted ...` line: the device restarted its estimator at the first
+    /// row (`ahrs-tool log --restart`, the device's `RAW,2`), so that a replay from the first
+    /// row with the device's settings reproduces the device's estimates.
+    pub restarted: bool,
 }
 
 /// Prefix of a setting line in a trace's comments.
 pub const META_SETTING: &str = "setting: ";
 /// Prefix of the conditioning line in a trace's comments.
 pub const META_CONDITIONED: &str = "conditioned: ";
+/// The comment line (without `# `) of a log whose first row is the first sample of the
+/// device's restarted estimator ([`TraceMeta::restarted`]).
+pub const META_RESTARTED: &str =
+    "estimator: restarted at the first row (RAW,2): a replay from the first row with these settings reproduces the device's estimates";
 /// What a logged trace's samples already had applied (`$PINAW` is the estimator's input).
 pub const LOG_CONDITIONED: [&str; 4] = ["axes", "gyro.offset", "accel_cal", "lever"];
 
@@ -234,6 +242,8 @@ impl TraceMeta {
                 meta.settings.push((line, s.trim().to_string()));
             } else if let Some(s) = c.strip_prefix(META_CONDITIONED) {
                 meta.conditioned.extend(s.split_whitespace().map(str::to_string));
+            } else if c.starts_with("estimator: restarted") {
+                meta.restarted = true;
             }
         }
         Ok(meta)
@@ -445,6 +455,7 @@ mod tests {
         std::fs::write(&path, text).unwrap();
         let meta = TraceMeta::read(&path).unwrap();
         assert!(meta.lever_applied());
+        assert!(!meta.restarted, "no `# estimator: restarted` line");
         let base = ReplayConfig::default();
         let mut rs = ReplaySettings::new(device_form(&base));
         rs.apply_trace(&meta, "log.csv").unwrap();
@@ -457,5 +468,10 @@ mod tests {
             rs.notes(),
             ["not applied: lever.r (the trace says its samples already had the lever arm)"]
         );
+        // `ahrs-tool log --restart`'s line.
+        let text = std::fs::read_to_string(&path).unwrap();
+        let (head, rest) = text.split_once('\n').unwrap();
+        std::fs::write(&path, format!("{head}\n# {META_RESTARTED}\n{rest}")).unwrap();
+        assert!(TraceMeta::read(&path).unwrap().restarted);
     }
 }

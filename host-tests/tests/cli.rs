@@ -635,8 +635,28 @@ fn a_logged_dive_replays_with_the_device_settings_and_no_second_lever_arm() {
     assert_eq!(
         stderr(&o),
         "replay: trace header: 71 device settings applied; its samples already had the lever \
-         arm (none added)\n"
+         arm (none added)\n\
+         replay: trace header: the device's estimator ran before the log's first row: the \
+         replay's estimates are not the device's (ahrs-tool log --restart records a comparable \
+         log)\n"
             .replace("71", &inemo_ahrs::registry::SETTINGS.len().to_string())
+    );
+    // A log whose first row is the restarted estimator's (`ahrs-tool log --restart`): the
+    // replay says it reproduces the device.
+    let restarted = dir.path().join("restarted.csv");
+    let text = std::fs::read_to_string(&dive).unwrap();
+    let (header, rest) = text.split_once('\n').unwrap();
+    let meta = host_tests::settings::META_RESTARTED;
+    std::fs::write(&restarted, format!("{header}\n# {meta}\n{rest}")).unwrap();
+    let o = run(&["replay", p(&restarted), "--out", p(&f("r.csv"))]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).ends_with(
+            "replay: trace header: the device's estimator restarted at the first row: the \
+             replay reproduces the device's estimates\n"
+        ),
+        "{}",
+        stderr(&o)
     );
     // The same as the bare trace with the device's settings (through the same 7-digit text)
     // and no lever arm ...

@@ -28,7 +28,9 @@ pub struct Pending {
     /// `pipeline.apply_settings(*device.settings())`; `Some(true)` when the filter rate
     /// changed too.
     pub apply: Option<bool>,
-    /// Set the yaw, rad.
+    /// Restart the estimator (`RAW,2`), before the yaw.
+    pub restart: bool,
+    /// Set the yaw, rad (after the restart: a yaw that came before a restart is dropped).
     pub yaw: Option<f32>,
 }
 
@@ -40,6 +42,10 @@ impl Pending {
                 self.apply = Some(self.apply.unwrap_or(false) | filter_rate_changed)
             }
             Action::SetYaw(yaw) => self.yaw = Some(yaw),
+            Action::RestartEstimator => {
+                self.restart = true;
+                self.yaw = None;
+            }
         }
     }
 }

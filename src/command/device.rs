@@ -1,6 +1,6 @@
 //! The device state and the command executor.
 
-use ekf_core::{mathf, ImuSample};
+use ekf_core::{mathf, Euler, ImuSample, Quaternion};
 
 use super::calib::{self, AccelPositionCal, CalEnd, GyroBiasCal};
 use super::line::LineEvent;
@@ -70,6 +70,34 @@ pub enum Action {
     },
     /// Set the yaw now, rad (a true heading): `pipeline.set_yaw(yaw)`.
     SetYaw(f32),
+    /// Restart the estimator before the next cycle (`RAW,2`): `pipeline.restart()`. An
+    /// [`Action::SetYaw`] that came before it is void (the restart starts from `init.yaw0`);
+    /// one after it applies after the restart.
+    RestartEstimator,
+}
+
+/// The raw streaming modes (`RAW,<mode>`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RawMode {
+    /// `RAW,0`: the attitude sentences (`$PRDID`, `$PINAH`, ...) at the output rate.
+    Off,
+    /// `RAW,1`: every cycle `$PINAW` and `$PINAX` (the estimator's input).
+    Samples,
+    /// `RAW,2`: the estimator restarted when the mode was set (and `t` from 0), then every
+    /// cycle `$PINAW`, `$PINAX` and the cycle's `$PRDID` (the estimate from that very
+    /// sample, sent whatever its validity): a log that a replay reproduces.
+    WithEstimate,
+}
+
+impl RawMode {
+    /// The mode's number in `RAW,<mode>`.
+    pub fn number(self) -> &'static str {
+        match self {
+            RawMode::Off => "0",
+            RawMode::Samples => "1",
+            RawMode::WithEstimate => "2",
+        }
+    }
 }
 
 /// What a command produced.
@@ -90,8 +118,9 @@ pub struct CycleOutput {
     /// What the application must do (a calibration changed the settings).
     pub action: Option<Action>,
     /// Raw streaming sentences of this cycle (`$PINAW`, then `$PINAX` when the magnetometer
-    /// or the depth was read), in raw mode.
-    pub raw: [Option<Sentence>; 2],
+    /// or the depth was read, then in [`RawMode::WithEstimate`] the cycle's `$PRDID`), in
+    /// raw mode.
+    pub raw: [Option<Sentence>; 3],
 }
 
 impl CycleOutput {
@@ -184,7 +213,7 @@ pub struct Device {
     load_missing: u16,
     dirty: bool,
     reset_cause: &'static str,
-    raw: bool,
+    raw: RawMode,
     gbias: Option<GyroBiasCal>,
     acal: Option<AccelPositionCal>,
     /// The accelerometer positions collected since boot or `ACAL,CLEAR`: bit i =
@@ -213,7 +242,7 @@ impl Device {
             load_missing: loaded.missing,
             dirty: false,
             reset_cause,
-            raw: false,
+            raw: RawMode::Off,
             gbias: None,
             acal: None,
             acal_seen: 0,
@@ -237,9 +266,14 @@ impl Device {
         self.source
     }
 
-    /// True in raw streaming mode (the application sends [`CycleOutput::raw`] instead of the
-    /// attitude sentences).
+    /// True in raw streaming mode, either [`RawMode`] other than `Off` (the application
+    /// sends [`CycleOutput::raw`] instead of the attitude sentences).
     pub fn raw_mode(&self) -> bool {
+        self.raw != RawMode::Off
+    }
+
+    /// The raw streaming mode.
+    pub fn raw(&self) -> RawMode {
         self.raw
     }
 
@@ -258,7 +292,7 @@ impl Device {
         };
         set(self.no_record, STATUS_NO_RECORD);
         set(self.dirty, STATUS_UNSAVED);
-        set(self.raw, STATUS_RAW);
+        set(self.raw != RawMode::Off, STATUS_RAW);
         set(self.gbias.is_some(), STATUS_GBIAS);
         set(self.acal.is_some(), STATUS_ACAL);
         set(self.load_skipped > 0, STATUS_SKIPPED);
@@ -422,14 +456,21 @@ impl Device {
             }
             Verb::Raw => {
                 nargs(1)?;
-                let on = match arg(0) {
-                    "0" => false,
-                    "1" => true,
+                let mode = match arg(0) {
+                    "0" => RawMode::Off,
+                    "1" => RawMode::Samples,
+                    "2" => RawMode::WithEstimate,
                     _ => return Err(Reason::Type.into()),
                 };
-                self.raw = on;
+                self.raw = mode;
                 let mut out = Out::ok(name);
-                out.field(if on { "1" } else { "0" });
+                out.field(mode.number());
+                if mode == RawMode::WithEstimate {
+                    // The log's time starts with the restarted estimator: its first row is
+                    // one cycle after the restart.
+                    self.clock_us = 0;
+                    return Ok((out, Some(Action::RestartEstimator)));
+                }
                 Ok((out, None))
             }
             Verb::Zero => {
@@ -646,9 +687,15 @@ impl Device {
 
     /// Feed one filter cycle: `inputs` as given to `Pipeline::step`, `sample` from
     /// `Pipeline::conditioned_sample(inputs)` (used only in raw mode; pass any sample
-    /// otherwise). Runs the calibrations, keeps the latest depth reading for `ZERO` and
-    /// builds the raw sentences.
-    pub fn on_cycle(&mut self, inputs: &Inputs, sample: &ImuSample) -> CycleOutput {
+    /// otherwise), `attitude` the estimate that step produced (`Step::attitude`; used only in
+    /// [`RawMode::WithEstimate`]). Runs the calibrations, keeps the latest depth reading for
+    /// `ZERO` and builds the raw sentences.
+    pub fn on_cycle(
+        &mut self,
+        inputs: &Inputs,
+        sample: &ImuSample,
+        attitude: Quaternion,
+    ) -> CycleOutput {
         let mut out = CycleOutput::default();
         let dt = inputs.dt;
         if dt.is_finite() && dt > 0.0 {
@@ -727,12 +774,15 @@ impl Device {
             }
         }
 
-        if self.raw {
+        if self.raw != RawMode::Off {
             out.raw[0] = raw::pinaw(self.clock_us, sample).ok();
             if sample.mag.is_some() || depth_m.is_some() {
                 out.raw[1] =
                     raw::pinax(self.clock_us, sample.mag.map(|m| m.to_array()), depth_m).ok();
             }
+        }
+        if self.raw == RawMode::WithEstimate {
+            out.raw[2] = nmea::prdid(&Euler::from_quaternion(attitude)).ok();
         }
         out
     }
@@ -786,17 +836,17 @@ mod refusal {
         let r = d.refusal_changes_nothing(|d| {
             d.settings.sentences.prdid = !d.settings.sentences.prdid;
             d.dirty = true;
-            d.raw = true;
+            d.raw = RawMode::Samples;
             Err(Reason::Type.into())
         });
         assert!(r.is_err());
         assert_eq!(d, before);
         // An accepted command keeps its changes.
         let r = d.refusal_changes_nothing(|d| {
-            d.raw = true;
+            d.raw = RawMode::Samples;
             Ok((Out::ok("RAW"), None))
         });
-        assert!(r.is_ok() && d.raw);
+        assert!(r.is_ok() && d.raw_mode());
         // And the real `SENT,0,x`: refused, nothing changed.
         let before = d.clone();
         let mut f = crate::persist::SimFlash::new();

@@ -107,6 +107,7 @@ fn corpus() -> Vec<String> {
         "PINAC,SENT,1,1,0,0,0,1,1",
         "PINAC,SENT,HDM,1",
         "PINAC,RAW,1",
+        "PINAC,RAW,2",
         "PINAC,RAW,0",
         "PINAC,SAVE",
         "PINAC,LOAD",
@@ -289,7 +290,7 @@ fn fuzz_the_command_parser() {
         if k % 7 == 0 {
             let i = random_inputs(&mut rng);
             let sample = ImuSample::new(i.dt, Vec3::new(rng.f32(), 0.0, 0.0), Vec3::ZERO);
-            let out = d.on_cycle(&i, &sample);
+            let out = d.on_cycle(&i, &sample, ekf_core::Quaternion::IDENTITY);
             if let Some(r) = &out.reply {
                 check_reply(r);
             }

@@ -7,7 +7,8 @@
 //! 2. every received byte → [`LineAssembler::push`]; every [`LineEvent`] →
 //!    [`Device::handle`] (with the flash), send the reply, act on the [`Action`];
 //! 3. every filter cycle, before `Pipeline::step`, `Pipeline::conditioned_sample(&inputs)`,
-//!    then [`Device::on_cycle`]; send its reply and raw sentences, act on its action.
+//!    then `Pipeline::step`, then [`Device::on_cycle`] (with the step's attitude); send its
+//!    reply and raw sentences, act on its action.
 
 mod board;
 mod calib;
@@ -22,7 +23,7 @@ pub use calib::{
     GyroBiasCal, Stats3, POSITION_NAMES,
 };
 pub use device::{
-    verb_names, Action, CycleOutput, Device, Response, ACAL_DEFAULT_S, ACAL_RANGE_S,
+    verb_names, Action, CycleOutput, Device, RawMode, Response, ACAL_DEFAULT_S, ACAL_RANGE_S,
     DEPTH_MAX_AGE_S, GBIAS_RANGE_S, STATUS_ACAL, STATUS_GBIAS, STATUS_MISSING, STATUS_NO_RECORD,
     STATUS_RAW, STATUS_SKIPPED, STATUS_UNSAVED, VERSION, YAW_RANGE_DEG,
 };

@@ -7,7 +7,7 @@ use crate::nmea::{checksum, verify, Sentence};
 use crate::persist::{self, Flash, FlashError, Page, SimFlash, Source};
 use crate::pipeline::{Inputs, Pipeline, PipelineSettings};
 use crate::registry::{self, SETTINGS};
-use ekf_core::{mathf, AttitudeFilter, Euler, ImuSample, Vec3};
+use ekf_core::{mathf, AttitudeFilter, Euler, ImuSample, Quaternion, Vec3};
 
 /// `$<body>*hh`.
 pub(super) fn cmd(body: &str) -> Vec<u8> {
@@ -79,7 +79,7 @@ fn inputs(dps: [f32; 3], accel_g: [f32; 3], n: &mut Noise) -> Inputs {
 
 fn cycle(d: &mut Device, i: &Inputs) -> CycleOutput {
     let sample = ImuSample::new(i.dt, Vec3::ZERO, Vec3::ZERO);
-    d.on_cycle(i, &sample)
+    d.on_cycle(i, &sample, Quaternion::IDENTITY)
 }
 
 #[test]
@@ -218,7 +218,11 @@ fn every_error_names_the_problem_and_changes_nothing() {
         (cmd("PINAC,SET,output.talker,H"), "PINAR,ERR,SET,type,talker"),
         (cmd("PINAC,SET,output.talker,H1X"), "PINAR,ERR,SET,type,talker"),
         (cmd("PINAC,SET,output.talker,H-"), "PINAR,ERR,SET,type,talker"),
-        (cmd("PINAC,RAW,2"), "PINAR,ERR,RAW,type"),
+        (cmd("PINAC,RAW,3"), "PINAR,ERR,RAW,type"),
+        (cmd("PINAC,RAW,-1"), "PINAR,ERR,RAW,type"),
+        (cmd("PINAC,RAW,02"), "PINAR,ERR,RAW,type"),
+        (cmd("PINAC,RAW"), "PINAR,ERR,RAW,args"),
+        (cmd("PINAC,RAW,2,1"), "PINAR,ERR,RAW,args"),
         (cmd("PINAC,ZERO"), "PINAR,ERR,ZERO,no-depth"),
         (cmd("PINAC,GBIAS,0.5"), "PINAR,ERR,GBIAS,range,1,600"),
         (cmd("PINAC,GBIAS"), "PINAR,ERR,GBIAS,args"),
@@ -329,14 +333,14 @@ fn yaw_rate_sentences_and_raw_mode() {
     assert!(d.raw_mode());
     let p = Pipeline::new(*d.settings());
     let sample = p.conditioned_sample(&i);
-    let out = d.on_cycle(&i, &sample);
+    let out = d.on_cycle(&i, &sample, Quaternion::IDENTITY);
     let lines: Vec<String> = out.raw_sentences().map(check).collect();
     assert_eq!(lines.len(), 2);
     assert!(lines[0].starts_with("PINAW,0.0400,"), "{}", lines[0]);
     assert!(lines[1].starts_with("PINAX,0.0400,,,,"), "{}", lines[1]);
     // Without the ADC, no gyro or depth: empty gyro fields, no $PINAX.
     let i2 = Inputs { adc: None, ..i };
-    let out = d.on_cycle(&i2, &p.conditioned_sample(&i2));
+    let out = d.on_cycle(&i2, &p.conditioned_sample(&i2), Quaternion::IDENTITY);
     let lines: Vec<String> = out.raw_sentences().map(check).collect();
     assert_eq!(lines.len(), 1);
     assert!(lines[0].starts_with("PINAW,0.0600,,,,"), "{}", lines[0]);
@@ -381,6 +385,75 @@ fn numbers_at_the_command_line() {
     assert_eq!(r, "PINAR,OK,SET,init.gyro_bias,0.1,-0.0025,12.34568");
     let (r, _) = run(&mut d, &mut f, "PINAC,GET,init.gyro_bias");
     assert_eq!(r, "PINAR,OK,GET,init.gyro_bias,0.1,-0.0025,12.34568");
+}
+
+/// `RAW,2` (issue #14): the estimator restarts (an action for the application), the time
+/// restarts, and every cycle sends `$PINAW`, `$PINAX`, then the `$PRDID` of the estimate from
+/// that very sample, whatever its validity; so that a replay of the log from its first row runs
+/// the device's estimator.
+#[test]
+fn raw_mode_2_restarts_the_estimator_and_sends_each_cycles_estimate() {
+    let mut d = fresh();
+    let mut f = SimFlash::new();
+    let mut n = Noise::new(7);
+    let mut p = Pipeline::new(*d.settings());
+    // Some time in raw mode 1 first: the clock runs, no $PRDID.
+    assert_eq!(run(&mut d, &mut f, "PINAC,RAW,1").0, "PINAR,OK,RAW,1");
+    for _ in 0..30 {
+        let i = inputs([3.0, -2.0, 5.0], [0.1, 0.0, 0.99], &mut n);
+        let sample = p.conditioned_sample(&i);
+        let step = p.step(&i);
+        let out = d.on_cycle(&i, &sample, step.attitude);
+        assert!(out.raw_sentences().all(|s| !s.as_str().starts_with("$PRDID")));
+    }
+    assert_eq!(d.raw(), RawMode::Samples);
+
+    // Refused forms change nothing (and request nothing).
+    for bad in ["PINAC,RAW,3", "PINAC,RAW,2,0", "PINAC,RAW,two", "PINAC,RAW,"] {
+        refused(&mut d, &mut f, &cmd(bad));
+    }
+    assert_eq!(d.raw(), RawMode::Samples);
+
+    let (r, a) = run(&mut d, &mut f, "PINAC,RAW,2");
+    assert_eq!(r, "PINAR,OK,RAW,2");
+    assert_eq!(a, Some(Action::RestartEstimator));
+    assert_eq!(d.raw(), RawMode::WithEstimate);
+    assert!(d.raw_mode());
+    assert_ne!(d.status_flags() & STATUS_RAW, 0, "STATUS bit 2: raw mode");
+    // The application restarts the pipeline: from here it runs as a fresh one.
+    p.restart();
+    let mut fresh_pipeline = Pipeline::new(*d.settings());
+    for k in 1..=600u32 {
+        let i = inputs([3.0, -2.0, 5.0], [0.1, 0.0, 0.99], &mut n);
+        let sample = p.conditioned_sample(&i);
+        let step = p.step(&i);
+        let twin = fresh_pipeline.step(&i);
+        assert_eq!(step.attitude, twin.attitude, "cycle {k}: the restart is not a power-up");
+        let out = d.on_cycle(&i, &sample, step.attitude);
+        let lines: Vec<String> = out.raw_sentences().map(check).collect();
+        assert_eq!(lines.len(), 3, "{lines:?}");
+        // The time restarted with the estimator: the first row is one cycle after it.
+        let t = format!("{}.{:04}", k / 50, (k % 50) * 200);
+        assert!(lines[0].starts_with(&format!("PINAW,{t},")), "{k}: {}", lines[0]);
+        assert!(lines[1].starts_with(&format!("PINAX,{t},")), "{k}: {}", lines[1]);
+        let prdid = crate::nmea::prdid(&Euler::from_quaternion(step.attitude)).unwrap();
+        assert_eq!(lines[2], check(&prdid), "cycle {k}");
+        // During the initialisation window too (the estimate is sent whatever its validity).
+        if k == 1 {
+            assert!(!p.ekf().is_initialised());
+        }
+    }
+    assert!(p.ekf().is_initialised(), "the window ended");
+    // RAW,1: no more $PRDID; RAW,0: nothing raw.
+    assert_eq!(run(&mut d, &mut f, "PINAC,RAW,1"), ("PINAR,OK,RAW,1".into(), None));
+    let i = inputs([0.0; 3], [0.0, 0.0, 1.0], &mut n);
+    assert_eq!(
+        d.on_cycle(&i, &p.conditioned_sample(&i), Quaternion::IDENTITY).raw_sentences().count(),
+        2
+    );
+    assert_eq!(run(&mut d, &mut f, "PINAC,RAW,0").0, "PINAR,OK,RAW,0");
+    assert_eq!(d.status_flags() & STATUS_RAW, 0);
+    assert_eq!(cycle(&mut d, &i).raw_sentences().count(), 0);
 }
 
 #[test]
@@ -578,7 +651,7 @@ fn the_pipeline_follows_the_settings_and_keeps_its_attitude() {
     for _ in 0..60 {
         let i = inputs([0.5, 0.0, 0.0], [0.0, 0.0, 1.0], &mut n);
         let sample = p.conditioned_sample(&i);
-        let out = d.on_cycle(&i, &sample);
+        let out = d.on_cycle(&i, &sample, Quaternion::IDENTITY);
         p.step(&i);
         if out.action.is_some() {
             action = out.action;
@@ -711,7 +784,7 @@ fn print_examples() {
     let p = Pipeline::new(*d.settings());
     let mut i = i;
     i.mag_ut = Some([20.0, -3.0, 45.0]);
-    for s in d.on_cycle(&i, &p.conditioned_sample(&i)).raw_sentences() {
+    for s in d.on_cycle(&i, &p.conditioned_sample(&i), Quaternion::IDENTITY).raw_sentences() {
         println!("< {}", s.as_str().trim_end());
     }
 }
