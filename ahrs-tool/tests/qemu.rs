@@ -304,7 +304,11 @@ fn tool_against_the_firmware_on_qemu() {
         let w = want.gyro.iter().map(|w| w * w).sum::<f32>().sqrt() + BIAS_BOUND;
         // Gyro: 5 decimals; accelerometer: 1 mg counts (half a step 0.0049 m/s²), 4 decimals,
         // the lever arm.
-        assert!(dg < 2e-5 && da < 0.005 + w * w * arm, "row {k} (t {}): {r:?} vs trace {want:?}", r.t);
+        assert!(
+            dg < 2e-5 && da < 0.005 + w * w * arm,
+            "row {k} (t {}): {r:?} vs trace {want:?}",
+            r.t
+        );
         // Depth in every cycle's $PINAX (the last one may be cut off by the end of the log).
         assert!(r.depth == Some(2.5) || k + 1 == rows.len(), "row {k}: {r:?}");
     }
