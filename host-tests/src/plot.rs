@@ -378,6 +378,9 @@ fn pull<T>(rx: &Chunks<T>, cur: &mut std::vec::IntoIter<T>) -> Result<Option<T>,
     }
 }
 
+/// A trace row's time, s, and truth quaternion when the trace has one.
+type TimeTruth = (f64, Option<[f32; 4]>);
+
 /// Read a trace and its estimate file together, row by row, into a [`Figure`]. Each file is
 /// parsed on a thread of its own (the trace's also draws up the truth series); this one fills
 /// the estimate and error series. Rows are matched by index and must have the same times.
@@ -399,7 +402,7 @@ where
     let mut trace = CsvReader::new(trace).map_err(terr)?;
     let t_idx = trace.require("t").map_err(terr)?;
     let q_idx = trace.group(["qw", "qx", "qy", "qz"]).map_err(terr)?;
-    let mut next_trace = move || -> Result<Option<(f64, Option<[f32; 4]>)>, TraceError> {
+    let mut next_trace = move || -> Result<Option<TimeTruth>, TraceError> {
         let Some(rec) = trace.next_record()? else {
             return Ok(None);
         };
