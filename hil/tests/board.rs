@@ -45,7 +45,7 @@ mod uart_tx;
 #[cfg(target_os = "none")]
 #[embedded_test::tests]
 mod tests {
-    use super::{adc_scan, clocks, imu, settings_flash::SettingsFlash, uart_tx};
+    use super::{adc_scan, clocks, imu, settings_flash, uart_tx};
     use inemo_ahrs::{
         adc::SCAN_LEN,
         board,
@@ -254,7 +254,7 @@ mod tests {
 
     #[test]
     fn a_settings_record_saved_reads_back(b: Board) {
-        let mut flash = SettingsFlash::new(b.flash);
+        let mut flash = settings_flash::take(b.flash);
         let before = persist::load(&flash);
         let mut s = PipelineSettings::default();
         s.filter_rate_hz = 40;
