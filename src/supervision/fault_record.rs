@@ -232,4 +232,40 @@ mod tests {
         assert_eq!(cause(&FaultRegs { cfsr: 0, hfsr: 1 << 1, ..regs() }), "VECTTBL");
         assert_eq!(cause(&FaultRegs { cfsr: 0, hfsr: 1 << 30, ..regs() }), "");
     }
+
+    /// Every fault status bit of PM0056 §4.4.10 (CFSR: MMFSR bits 0–7, BFSR 8–15, UFSR 16–31)
+    /// alone names its cause; the status bits without a cause (MMARVALID 7, BFARVALID 15) and
+    /// the reserved bits name none; with several bits the lowest named one wins.
+    #[test]
+    fn each_fault_status_bit_alone_names_its_cause() {
+        let named = [
+            (0, "IACCVIOL"),
+            (1, "DACCVIOL"),
+            (3, "MUNSTKERR"),
+            (4, "MSTKERR"),
+            (8, "IBUSERR"),
+            (9, "PRECISERR"),
+            (10, "IMPRECISERR"),
+            (11, "UNSTKERR"),
+            (12, "STKERR"),
+            (16, "UNDEFINSTR"),
+            (17, "INVSTATE"),
+            (18, "INVPC"),
+            (24, "UNALIGNED"),
+            (25, "DIVBYZERO"),
+        ];
+        for bit in 0..32u32 {
+            let want = named.iter().find(|(b, _)| *b == bit).map_or("", |(_, n)| *n);
+            let r = FaultRegs { cfsr: 1 << bit, hfsr: 0, ..regs() };
+            assert_eq!(cause(&r), want, "CFSR bit {bit}");
+        }
+        for (i, (lo, name)) in named.iter().enumerate() {
+            for (hi, _) in &named[i + 1..] {
+                let r = FaultRegs { cfsr: 1 << lo | 1 << hi, hfsr: 1 << 1, ..regs() };
+                assert_eq!(cause(&r), *name, "CFSR bits {lo} and {hi}");
+            }
+        }
+        // HFSR DEBUGEVT (bit 31) when nothing else is named.
+        assert_eq!(cause(&FaultRegs { cfsr: 0, hfsr: 1 << 31, ..regs() }), "DEBUGEVT");
+    }
 }

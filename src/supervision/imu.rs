@@ -157,11 +157,6 @@ impl<I2C: I2c> Imu<I2C> {
         self.accel
     }
 
-    /// Cycles between two magnetometer reads.
-    pub fn mag_divider(&self) -> u16 {
-        self.mag_divider
-    }
-
     /// Checks the magnetometer's identification, then configures the accelerometer and the
     /// magnetometer. A wrong identification does not stop it (the DLHC reads the same): it is
     /// returned as `Ok(Some(id))` for the log.
