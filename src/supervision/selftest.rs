@@ -193,6 +193,32 @@ mod tests {
         evaluate(i).grades[k]
     }
 
+    /// The I²C item warns after any transfer error or a second bus clear (the first, at boot,
+    /// is routine) and fails on a stuck line.
+    #[test]
+    fn i2c_warns_on_errors_or_repeated_clears() {
+        assert_eq!(grade(&good(), "I2C"), Grade::Pass);
+        assert_eq!(grade(&Inputs { i2c_errors: 1, ..good() }, "I2C"), Grade::Warn);
+        assert_eq!(grade(&Inputs { bus_clears: 2, ..good() }, "I2C"), Grade::Warn);
+        assert_eq!(grade(&Inputs { bus_clears: 0, ..good() }, "I2C"), Grade::Pass);
+        let stuck = Inputs { last_clear: Some(Clear::SdaStuck), ..good() };
+        assert_eq!(grade(&stuck, "I2C"), Grade::Fail);
+    }
+
+    /// The accelerometer item checks the magnitude of the reading, whatever the board's tilt.
+    #[test]
+    fn a_tilted_board_reads_one_g() {
+        for a in [[0.6, 0.0, 0.8], [0.0, -0.6, 0.8], [0.8, 0.0, -0.6], [0.577, 0.577, 0.577]] {
+            assert_eq!(
+                grade(&Inputs { accel_g: Some(a), ..good() }, "accel"),
+                Grade::Pass,
+                "{a:?}"
+            );
+        }
+        let low = Inputs { accel_g: Some([0.5, 0.0, 0.7]), ..good() };
+        assert_eq!(grade(&low, "accel"), Grade::Warn);
+    }
+
     #[test]
     fn a_working_board_passes_everything() {
         let r = evaluate(&good());

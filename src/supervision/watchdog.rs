@@ -267,6 +267,17 @@ mod tests {
         assert_eq!(reload(BOOT_TIMEOUT_MS), 1249);
         assert_eq!(reload(RUN_TIMEOUT_MS), 311);
         assert_eq!(reload(100_000), 0xFFF);
+        // Below one count (1.6 ms): the shortest timeout, RLR 0, not an underflow.
+        assert_eq!(reload(0), 0);
+        assert_eq!(reload(1), 0);
+        assert_eq!(reload(2), 0);
+    }
+
+    #[test]
+    fn only_feed_feeds() {
+        assert!(Verdict::Feed.feed());
+        assert!(!Verdict::StormStarted.feed());
+        assert!(!Verdict::Starve.feed());
     }
 
     #[test]
