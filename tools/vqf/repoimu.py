@@ -82,9 +82,9 @@ def best_constant_bias(t, gyr, q_true, iterations=3):
     return bias
 
 
-def one_trace(path):
-    """VQF online on any trace with truth (e.g. the `handheld` example's): started at zero bias,
-    and at the mean gyro over the first 9 s (a still start)."""
+def load(path):
+    """A trace's time, median step, gyro and accelerometer (C-contiguous, as VQF wants them),
+    truth, and the rotation that turns VQF's z-up output into body→NED: (0, 1, 0, 0) ⊗ q."""
     d = np.genfromtxt(path, delimiter=",", names=True, comments="#")
     t = d["t"]
     dt = float(np.median(np.diff(t)))
@@ -92,6 +92,13 @@ def one_trace(path):
     acc = np.ascontiguousarray(np.stack([d["ax"], d["ay"], d["az"]], 1))
     q_true = np.stack([d["qw"], d["qx"], d["qy"], d["qz"]], 1)
     to_ned = np.tile([0.0, 1.0, 0.0, 0.0], (len(t), 1))
+    return t, dt, gyr, acc, q_true, to_ned
+
+
+def one_trace(path):
+    """VQF online on any trace with truth (e.g. the `handheld` example's): started at zero bias,
+    and at the mean gyro over the first 9 s (a still start)."""
+    t, dt, gyr, acc, q_true, to_ned = load(path)
     plain = score(qmul(to_ned, VQF(dt).updateBatch(gyr, acc)["quat6D"]), q_true)
     v = VQF(dt)
     v.setBiasEstimate(gyr[t < t[0] + 9.0].mean(0), np.radians(0.03))
@@ -113,14 +120,7 @@ def main():
     fits = []
     print(f"{'file':40} {'VQF online':>16} {'VQF, rest bias':>16}   rest bias (deg/s)")
     for f in files:
-        d = np.genfromtxt(f, delimiter=",", names=True)
-        t = d["t"]
-        dt = float(np.median(np.diff(t)))
-        gyr = np.ascontiguousarray(np.stack([d["gx"], d["gy"], d["gz"]], 1))
-        acc = np.ascontiguousarray(np.stack([d["ax"], d["ay"], d["az"]], 1))
-        q_true = np.stack([d["qw"], d["qx"], d["qy"], d["qz"]], 1)
-        # VQF's reference frame is z up: (0, 1, 0, 0) ⊗ q turns its output into body→NED.
-        to_ned = np.tile([0.0, 1.0, 0.0, 0.0], (len(t), 1))
+        t, dt, gyr, acc, q_true, to_ned = load(f)
         plain = score(qmul(to_ned, VQF(dt).updateBatch(gyr, acc)["quat6D"]), q_true)
         rest_bias = gyr[t > t[-1] - 3.0].mean(0)
         v = VQF(dt)
