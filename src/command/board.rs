@@ -132,5 +132,8 @@ mod tests {
         );
         let s = fault_reply(FaultKind::HardFault, &FaultRegs { cfsr: 1 << 17, ..regs });
         assert!(text(&s).contains(",00020000,40000000,*"), "{}", text(&s));
+        // MMARVALID (CFSR bit 7, with DACCVIOL bit 1): the MemManage address.
+        let s = fault_reply(FaultKind::HardFault, &FaultRegs { cfsr: 1 << 1 | 1 << 7, ..regs });
+        assert!(text(&s).contains(",00000082,40000000,11111111*"), "{}", text(&s));
     }
 }

@@ -222,3 +222,70 @@ pub fn position_by_name(name: &str) -> Option<Position> {
 pub fn position_name(p: Position) -> &'static str {
     POSITION_NAMES.get(p.index()).copied().unwrap_or("?")
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `sqrt(rest.gyro_var_factor · noise.gyro_var · filter_rate / gyro_ref_rate)` by hand for
+    /// the defaults (factor 6; 0.337, 0.275, 0.00419 (°/s)² at 50 Hz, filter at 50 Hz): 1.4220,
+    /// 1.2845, 0.15856 °/s; at 100 Hz √2 times that; a tiny noise setting gives the 0.01 °/s
+    /// floor.
+    #[test]
+    fn allowed_gyro_spread_by_hand() {
+        let deg = core::f32::consts::PI / 180.0;
+        let mut s = PipelineSettings::default();
+        let close = |got: [f32; 3], want: [f32; 3]| {
+            got.iter().zip(want).all(|(g, w)| (g / deg - w).abs() < 1e-4 * w.max(1.0))
+        };
+        assert!(close(gyro_sigma(&s), [1.4220, 1.2845, 0.15856]), "{:?}", gyro_sigma(&s));
+        s.filter_rate_hz = 100;
+        let r2 = core::f32::consts::SQRT_2;
+        assert!(close(gyro_sigma(&s), [1.4220 * r2, 1.2845 * r2, 0.15856 * r2]));
+        s.filter.noise.gyro_var = ekf_core::Vec3::new(1e-14, 1e-14, 1e-14);
+        assert!(close(gyro_sigma(&s), [0.01; 3]), "{:?}", gyro_sigma(&s));
+    }
+
+    /// A collection ends at the sample nearest to its duration, and ten samples are enough:
+    /// 0.5 s at 20 Hz is done at the tenth cycle, not before and not a sensor failure.
+    #[test]
+    fn ten_samples_are_enough_and_the_end_is_the_nearest_sample() {
+        let mut s = PipelineSettings::default();
+        s.filter_rate_hz = 20;
+        let mut cal = AccelPositionCal::new(Position::ZUp, 0.5);
+        for k in 1..10 {
+            assert_eq!(cal.push(0.05, Some([0.0, 0.0, 1.0]), &s), CalEnd::Running, "cycle {k}");
+        }
+        assert_eq!(cal.push(0.05, Some([0.0, 0.0, 1.0]), &s), CalEnd::Done([0.0, 0.0, 1.0]));
+        let mut gyro = GyroBiasCal::new(1.0);
+        let rate = Some([0.01, -0.02, 0.003]);
+        for k in 1..20 {
+            assert_eq!(gyro.push(0.05, rate, Some([0.0, 0.0, 1.0]), &s), CalEnd::Running, "{k}");
+        }
+        assert!(matches!(gyro.push(0.05, rate, Some([0.0, 0.0, 1.0]), &s), CalEnd::Done(_)));
+    }
+
+    /// A cycle time that is not a positive number adds no time: with one before every valid
+    /// cycle, 0.5 s at 20 Hz still ends at the tenth valid cycle.
+    #[test]
+    fn a_bad_cycle_time_adds_no_time() {
+        let mut s = PipelineSettings::default();
+        s.filter_rate_hz = 20;
+        let up = Some([0.0, 0.0, 1.0]);
+        for bad in [-0.05, f32::NAN, f32::INFINITY, -f32::INFINITY] {
+            let mut cal = AccelPositionCal::new(Position::ZUp, 0.5);
+            let mut gyro = GyroBiasCal::new(1.0);
+            for k in 1..=20 {
+                assert_eq!(gyro.push(bad, Some([0.0; 3]), up, &s), CalEnd::Running, "{bad}");
+                if k <= 10 {
+                    assert_eq!(cal.push(bad, up, &s), CalEnd::Running, "{bad} before {k}");
+                    let end = cal.push(0.05, up, &s);
+                    let want = if k < 10 { CalEnd::Running } else { CalEnd::Done([0.0, 0.0, 1.0]) };
+                    assert_eq!(end, want, "{bad}: cycle {k}");
+                }
+                let end = gyro.push(0.05, Some([0.0; 3]), up, &s);
+                assert_eq!(end == CalEnd::Running, k < 20, "{bad}: gyro cycle {k}: {end:?}");
+            }
+        }
+    }
+}

@@ -788,3 +788,44 @@ fn print_examples() {
         println!("< {}", s.as_str().trim_end());
     }
 }
+
+/// `STATUS`'s flags field, 4 hex digits, against the bit positions `docs/commands.md`
+/// documents (bit 0 no valid record, 1 unsaved, 2 raw, 3 `GBIAS`, 4 `ACAL`, 5 skipped
+/// entries, 6 missing settings): the literal values, not the constants.
+#[test]
+fn status_flags_sit_at_their_documented_bits() {
+    let flags = |d: &mut Device, f: &mut SimFlash| -> String {
+        let (r, _) = run(d, f, "PINAC,STATUS");
+        r.split(',').nth(6).expect("flags field").to_string()
+    };
+    let mut f = SimFlash::new();
+    let mut d = fresh();
+    assert_eq!(flags(&mut d, &mut f), "0001", "boot without a record");
+    run(&mut d, &mut f, "PINAC,SET,gate.jump,0.3");
+    assert_eq!(flags(&mut d, &mut f), "0003", "a setting changed");
+    run(&mut d, &mut f, "PINAC,SAVE");
+    assert_eq!(flags(&mut d, &mut f), "0001", "saved; bit 0 tells of the last load");
+    run(&mut d, &mut f, "PINAC,LOAD");
+    assert_eq!(flags(&mut d, &mut f), "0000", "loaded a record, nothing unsaved");
+    run(&mut d, &mut f, "PINAC,RAW,1");
+    assert_eq!(flags(&mut d, &mut f), "0004");
+    run(&mut d, &mut f, "PINAC,RAW,0");
+    run(&mut d, &mut f, "PINAC,GBIAS,10");
+    assert_eq!(flags(&mut d, &mut f), "0008");
+    run(&mut d, &mut f, "PINAC,ABORT");
+    run(&mut d, &mut f, "PINAC,ACAL,ZUP");
+    assert_eq!(flags(&mut d, &mut f), "0010");
+    run(&mut d, &mut f, "PINAC,ABORT");
+    assert_eq!(flags(&mut d, &mut f), "0000");
+    // A record with skipped entries and missing settings (as `LOAD` reports them).
+    let loaded = persist::Loaded { skipped: 2, missing: 0, ..persist::load(&f) };
+    assert_eq!(flags(&mut Device::new(&loaded, "POR"), &mut f), "0020");
+    let loaded = persist::Loaded { skipped: 0, missing: 3, ..persist::load(&f) };
+    assert_eq!(flags(&mut Device::new(&loaded, "POR"), &mut f), "0040");
+    // Raw mode 2 is raw mode too.
+    run(&mut d, &mut f, "PINAC,RAW,2");
+    assert_eq!(flags(&mut d, &mut f), "0004");
+    assert!(d.raw_mode());
+    run(&mut d, &mut f, "PINAC,RAW,0");
+    assert!(!d.raw_mode());
+}
