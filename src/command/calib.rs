@@ -250,8 +250,7 @@ mod tests {
     /// 0.5 s at 20 Hz is done at the tenth cycle, not before and not a sensor failure.
     #[test]
     fn ten_samples_are_enough_and_the_end_is_the_nearest_sample() {
-        let mut s = PipelineSettings::default();
-        s.filter_rate_hz = 20;
+        let s = PipelineSettings { filter_rate_hz: 20, ..PipelineSettings::default() };
         let mut cal = AccelPositionCal::new(Position::ZUp, 0.5);
         for k in 1..10 {
             assert_eq!(cal.push(0.05, Some([0.0, 0.0, 1.0]), &s), CalEnd::Running, "cycle {k}");
@@ -269,8 +268,7 @@ mod tests {
     /// cycle, 0.5 s at 20 Hz still ends at the tenth valid cycle.
     #[test]
     fn a_bad_cycle_time_adds_no_time() {
-        let mut s = PipelineSettings::default();
-        s.filter_rate_hz = 20;
+        let s = PipelineSettings { filter_rate_hz: 20, ..PipelineSettings::default() };
         let up = Some([0.0, 0.0, 1.0]);
         for bad in [-0.05, f32::NAN, f32::INFINITY, -f32::INFINITY] {
             let mut cal = AccelPositionCal::new(Position::ZUp, 0.5);
