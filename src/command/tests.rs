@@ -829,3 +829,47 @@ fn status_flags_sit_at_their_documented_bits() {
     run(&mut d, &mut f, "PINAC,RAW,0");
     assert!(!d.raw_mode());
 }
+
+/// A gyro at its rail (saturated) is no bias sample: `GBIAS` over such frames ends with
+/// `sensor`, not with the rail's value as the offset.
+#[test]
+fn gyro_bias_calibration_skips_a_saturated_gyro() {
+    let mut d = fresh();
+    let mut f = SimFlash::new();
+    run(&mut d, &mut f, "PINAC,GBIAS,1");
+    let before = *d.settings();
+    let mut railed = adc([1.0, -2.0, 0.5], 0.5);
+    railed.rails = crate::adc::Rails::GYRO_X;
+    let mut reply = None;
+    for _ in 0..100 {
+        let i = Inputs {
+            dt: 0.02,
+            adc: Some(railed),
+            accel_g: Some([0.0, 0.0, 1.0]),
+            ..Inputs::default()
+        };
+        if let Some(r) = cycle(&mut d, &i).reply {
+            reply = Some(check(&r));
+            break;
+        }
+    }
+    assert_eq!(reply.as_deref(), Some("PINAR,ERR,GBIAS,sensor"));
+    assert_eq!(*d.settings(), before);
+}
+
+/// The raw clock (`$PINAW`'s `t`) counts only positive, finite cycle times.
+#[test]
+fn the_raw_clock_skips_a_bad_cycle_time() {
+    let mut d = fresh();
+    let mut f = SimFlash::new();
+    let mut n = Noise::new(3);
+    run(&mut d, &mut f, "PINAC,RAW,1");
+    let p = Pipeline::new(*d.settings());
+    let mut last = String::new();
+    for dt in [0.02, f32::INFINITY, -0.5, f32::NAN, 0.02] {
+        let i = Inputs { dt, ..inputs([0.0; 3], [0.0, 0.0, 1.0], &mut n) };
+        let out = d.on_cycle(&i, &p.conditioned_sample(&i), Quaternion::IDENTITY);
+        last = out.raw_sentences().map(check).next().expect("a $PINAW");
+    }
+    assert!(last.starts_with("PINAW,0.0400,"), "{last}");
+}
