@@ -264,10 +264,12 @@ pub struct EkfSettings {
     /// Gyro-bias standard deviation after initialisation, rad/s. Default 0.2 °/s. Also the rate
     /// agreement a still initialisation window tolerates (`init.rs`).
     pub initial_bias_sigma: f32,
-    /// Longest time constant of the accelerometer's low-pass in the estimate's NED frame, s:
-    /// reached in strong motion, where motion accelerations average out and gravity stays
-    /// (VQF's idea, Laidig and Seel 2023); still, samples are used as they are. Default 1 s
-    /// (RepoIMU and the simulated scenarios, `docs/accuracy.md`). 0: raw samples always.
+    /// Longest delay of the accelerometer's low-pass in the estimate's NED frame, s (two
+    /// first-order stages of half this time constant each): reached in strong motion, where
+    /// motion accelerations average out and gravity stays (VQF's idea, Laidig and Seel 2023);
+    /// still, samples are used as they are. Default 1.5 s: hand-held motion and the simulated
+    /// pendulum against RepoIMU and the realistic tumble (`docs/filter.md`, session 9). 0: raw
+    /// samples always.
     pub accel_time_constant: f32,
     /// Motion level at which the motion weight is ½, g² (mean squared deviation of the
     /// specific force from its low-pass): the low-pass runs at half its longest time constant.
@@ -287,7 +289,7 @@ impl Default for EkfSettings {
             initial_tilt_sigma: deg(2.0),
             initial_yaw_sigma: deg(5.0),
             initial_bias_sigma: deg(0.2),
-            accel_time_constant: 1.0,
+            accel_time_constant: 1.5,
             motion_scale: 1e-3,
             motion_time_constant: 1.0,
         }

@@ -40,7 +40,8 @@ fn trajectory(k: f64) -> Trajectory {
             ],
             q0: [1.0, 0.0, 0.0, 0.0],
         },
-        accel_body: [
+        accel_body: [Profile::Zero; 3],
+        accel_ned: [
             acc([(3.0, 0.8, 0.0), (2.0, 2.1, 1.0)]),
             acc([(2.5, 0.6, 0.3), (2.0, 1.7, 1.3)]),
             acc([(2.0, 0.9, 0.6), (1.5, 2.4, 1.6)]),

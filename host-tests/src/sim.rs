@@ -446,13 +446,19 @@ pub enum Attitude {
     },
 }
 
-/// A motion: attitude plus the linear acceleration of the rotation centre in body axes.
+/// A motion: attitude plus the linear acceleration of the rotation centre, given in body axes
+/// (a vehicle's thrust), in NED (a motion whose position stays bounded in space: a hand, a
+/// wave), or both (summed).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Trajectory {
     /// Attitude motion.
     pub attitude: Attitude,
     /// Linear acceleration of the rotation centre, m/s², body FRD (x surge, y sway, z heave).
     pub accel_body: [Profile; 3],
+    /// Linear acceleration of the rotation centre, m/s², NED (added to `accel_body`). Sines
+    /// here keep the position bounded whatever the attitude does; sines in `accel_body` on a
+    /// turning body do not (the velocity wanders).
+    pub accel_ned: [Profile; 3],
 }
 
 impl Trajectory {
@@ -460,11 +466,24 @@ impl Trajectory {
     pub const STILL: Trajectory = Trajectory {
         attitude: Attitude::Euler([Profile::Zero; 3]),
         accel_body: [Profile::Zero; 3],
+        accel_ned: [Profile::Zero; 3],
     };
+
+    /// The linear acceleration of the rotation centre at `t`, m/s², body FRD, with the body
+    /// at attitude `q`: `accel_body` plus `accel_ned` turned into the body.
+    pub fn accel_at(&self, q: Q, t: f64) -> V3 {
+        let (b, n) = (self.accel_body, self.accel_ned);
+        let ned = [n[0].eval(t).0, n[1].eval(t).0, n[2].eval(t).0];
+        add([b[0].eval(t).0, b[1].eval(t).0, b[2].eval(t).0], rotate_inverse(q, ned))
+    }
 
     /// An Euler-angle trajectory without linear acceleration.
     pub fn euler(roll: Profile, pitch: Profile, yaw: Profile) -> Self {
-        Trajectory { attitude: Attitude::Euler([roll, pitch, yaw]), accel_body: [Profile::Zero; 3] }
+        Trajectory {
+            attitude: Attitude::Euler([roll, pitch, yaw]),
+            accel_body: [Profile::Zero; 3],
+            accel_ned: [Profile::Zero; 3],
+        }
     }
 }
 
@@ -1046,8 +1065,7 @@ impl Iterator for Simulator {
         }
         let s = self.cfg.sensors;
         let (q, omega, omega_dot) = self.truth(t);
-        let ab = self.traj.accel_body;
-        let accel_body = [ab[0].eval(t).0, ab[1].eval(t).0, ab[2].eval(t).0];
+        let accel_body = self.traj.accel_at(q, t);
         let accel_clean = s.accel_clean(q, omega, omega_dot, accel_body);
 
         let mut gyro = [0f32; 3];
@@ -1093,8 +1111,7 @@ impl Simulator {
             let at = self.truth(t);
             (at.0, at)
         };
-        let ab = self.traj.accel_body;
-        let accel_body = [ab[0].eval(t_s).0, ab[1].eval(t_s).0, ab[2].eval(t_s).0];
+        let accel_body = self.traj.accel_at(q_s, t_s);
         let accel_clean = s.accel_clean(q_s, omega, omega_dot, accel_body);
         let p = r.p;
         let (vib_a, vib_w) = r.vibration(t_s, s.gravity);
@@ -1282,6 +1299,7 @@ impl Scenario {
                         q0: [1.0, 0.0, 0.0, 0.0],
                     },
                     accel_body: [Profile::Zero; 3],
+                    accel_ned: [Profile::Zero; 3],
                 }
             }
             Scenario::PitchStep => Trajectory::euler(
@@ -1316,6 +1334,7 @@ impl Scenario {
                     q0: [1.0, 0.0, 0.0, 0.0],
                 },
                 accel_body: [Profile::Zero; 3],
+                accel_ned: [Profile::Zero; 3],
             },
             Scenario::SideMount => Trajectory {
                 attitude: Attitude::Mounted {
@@ -1332,6 +1351,7 @@ impl Scenario {
                     mount: Scenario::side_mount(),
                 },
                 accel_body: [Profile::Zero; 3],
+                accel_ned: [Profile::Zero; 3],
             },
             Scenario::StartMoving => Trajectory::euler(
                 Profile::Zero,
@@ -1358,6 +1378,7 @@ impl Scenario {
                 },
                 // The pivot is the rotation centre and does not move.
                 accel_body: [Profile::Zero; 3],
+                accel_ned: [Profile::Zero; 3],
             },
         }
     }

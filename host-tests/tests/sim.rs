@@ -119,6 +119,7 @@ fn constant_body_rate_truth_is_the_analytic_rotation() {
     let traj = Trajectory {
         attitude: Attitude::BodyRates { rates: w.map(Profile::Const), q0 },
         accel_body: [Profile::Zero; 3],
+        accel_ned: [Profile::Zero; 3],
     };
     let sim = Simulator::new(traj, config(clean_sensors(), 50.0, 30.0));
     let norm = (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]).sqrt();
@@ -138,6 +139,33 @@ fn constant_body_rate_truth_is_the_analytic_rotation() {
 }
 
 #[test]
+fn a_ned_acceleration_turns_with_the_body() {
+    // Level, turning at 0.5 rad/s about NED z (yaw ψ = 0.5 t), with 1 m/s² north and
+    // 2 m/s² up (NED z −2) at the rotation centre, lever arm zero: the specific force in the
+    // body is Rᵀ(a − g) = (cos ψ, −sin ψ, −2 − g), and the body-axis profile adds to it.
+    let traj = Trajectory {
+        attitude: Attitude::BodyRates {
+            rates: [Profile::Zero, Profile::Zero, Profile::Const(0.5)],
+            q0: [1.0, 0.0, 0.0, 0.0],
+        },
+        accel_body: [Profile::Zero, Profile::Const(0.25), Profile::Zero],
+        accel_ned: [Profile::Const(1.0), Profile::Zero, Profile::Const(-2.0)],
+    };
+    let mut sensors = clean_sensors();
+    sensors.lever_arm = [0.0; 3];
+    let mut n = 0;
+    for s in Simulator::new(traj, config(sensors, 50.0, 10.0)) {
+        let psi = 0.5 * s.row.t;
+        let a = s.accel_clean;
+        assert!((a[0] - psi.cos()).abs() < 1e-9, "t {} {a:?}", s.row.t);
+        assert!((a[1] - (0.25 - psi.sin())).abs() < 1e-9, "t {} {a:?}", s.row.t);
+        assert!((a[2] - (-2.0 - G0)).abs() < 1e-9, "t {} {a:?}", s.row.t);
+        n += 1;
+    }
+    assert_eq!(n, 500);
+}
+
+#[test]
 fn lever_arm_terms_equal_hand_values() {
     // Constant yaw rate 1 rad/s, level: ω × (ω × r) = −ω² (r_x, r_y, 0)
     //   = (−0.29725, 0.196, 0) m/s².
@@ -147,6 +175,7 @@ fn lever_arm_terms_equal_hand_values() {
             q0: [1.0, 0.0, 0.0, 0.0],
         },
         accel_body: [Profile::Zero; 3],
+        accel_ned: [Profile::Zero; 3],
     };
     assert_eq!(LEVER_ARM_M, [0.297_25, -0.196, 0.0803]);
     for s in Simulator::new(traj, config(clean_sensors(), 50.0, 2.0)) {
@@ -167,6 +196,7 @@ fn lever_arm_terms_equal_hand_values() {
             q0: [1.0, 0.0, 0.0, 0.0],
         },
         accel_body: [Profile::Zero; 3],
+        accel_ned: [Profile::Zero; 3],
     };
     for s in Simulator::new(traj, config(clean_sensors(), 50.0, 1.0)).skip(1) {
         let w2 = (2.0 * s.row.t).powi(2);
@@ -623,6 +653,7 @@ fn fixed_errors_are_bounded_constant_and_per_seed() {
             let traj = Trajectory {
                 attitude: Attitude::BodyRates { rates: w, q0: [1.0, 0.0, 0.0, 0.0] },
                 accel_body: [Profile::Zero; 3],
+                accel_ned: [Profile::Zero; 3],
             };
             let cfg = SimConfig { seed, ..config(clean_with(fixed), 50.0, 1.0) };
             let rows: Vec<_> = Simulator::new(traj, cfg).map(|s| s.row.gyro).collect();
@@ -691,6 +722,7 @@ fn quantisation_and_full_scale() {
                 q0: [1.0, 0.0, 0.0, 0.0],
             },
             accel_body: [Profile::Const(a * G0), Profile::Zero, Profile::Zero],
+            accel_ned: [Profile::Zero; 3],
         };
         let mut sensors = clean_with(q);
         sensors.lever_arm = [0.0; 3];

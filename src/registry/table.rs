@@ -517,7 +517,7 @@ settings_table! {
         1.0,
         0.0,
         60.0,
-        "longest time constant of the accelerometer low-pass in NED (strong motion); 0: raw samples",
+        "delay of the accelerometer low-pass in NED (2 stages, strong motion); 0: raw samples",
         |s| s.filter.ekf.accel_time_constant
     ),
     num!(
