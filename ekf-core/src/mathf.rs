@@ -68,14 +68,8 @@ pub fn sin_cos(x: f32) -> (f32, f32) {
 /// Exercised against `libm::atan2f` in the tests.
 #[inline]
 pub fn atan2(y: f32, x: f32) -> f32 {
-    const C: [f32; 6] = [
-        0.999_975_7,
-        -0.332_585_2,
-        0.193_293_69,
-        -0.115_781_985,
-        0.051_923_502,
-        -0.011_427_532,
-    ];
+    const C: [f32; 6] =
+        [0.999_975_7, -0.332_585_2, 0.193_293_69, -0.115_781_985, 0.051_923_502, -0.011_427_532];
     let (ay, ax) = (y.to_bits() & 0x7fff_ffff, x.to_bits() & 0x7fff_ffff);
     if ax >= 0x7f80_0000 || ay >= 0x7f80_0000 || (ax | ay) == 0 {
         return atan2_special(y, x);

@@ -1,6 +1,7 @@
 //! A hand-held-like motion that the project's scenarios do not cover (session 8, issue #13):
 //! three sines per body axis at 0.2–2.7 Hz (rates up to about 250 °/s) and, at the rotation
-//! centre, linear accelerations of up to 0.5 g at 0.6–2.4 Hz, after a 10 s still start; 100 Hz,
+//! centre, linear accelerations of up to 0.5 g at 0.6–2.4 Hz, sines in NED (so that the position
+//! stays bounded, as a hand's does; session 9), after a 10 s still start; 100 Hz,
 //! 120 s, no lever arm, seeds 1–3, plain and realistic sensors (`simulate --realistic`'s errors,
 //! full scales widened to ±2000 °/s and ±8 g). Prints the mean inclination and heading RMSE
 //! (`host_tests::real::score`) of the EKF, gyro-only and complementary filters.

@@ -5,6 +5,10 @@ online with its bias estimate started at the gyro's mean over the recording's la
 pendulum hangs still there: the rest bias), the same metric as `host-tests`'s real-data table
 (inclination RMSE; heading RMSE with its circular mean removed). Run by `scripts/vqf-reference`.
 
+Then the mean inclination of VQF's accelerometer low-pass alone (motion bias estimation off)
+with its time constant at 1 s and at 3 s (its default): how the recording's gyro errors grow
+over a longer average.
+
 Then, per file, the constant gyro bias that best explains the whole recording: the gyro
 integrated from the first true attitude, with the bias fitted by least squares (Gauss-Newton)
 to the optical truth, beside the rest bias. Where the two differ on the vertical x axis, no
@@ -97,14 +101,20 @@ def load(path):
 
 def one_trace(path):
     """VQF online on any trace with truth (e.g. the `handheld` example's): started at zero bias,
-    and at the mean gyro over the first 9 s (a still start)."""
+    at the mean gyro over the first 9 s (a still start), and the same with its motion bias
+    estimation off (its accelerometer low-pass alone; the simulator's bias is constant)."""
     t, dt, gyr, acc, q_true, to_ned = load(path)
     plain = score(qmul(to_ned, VQF(dt).updateBatch(gyr, acc)["quat6D"]), q_true)
+    b0 = gyr[t < t[0] + 9.0].mean(0)
     v = VQF(dt)
-    v.setBiasEstimate(gyr[t < t[0] + 9.0].mean(0), np.radians(0.03))
+    v.setBiasEstimate(b0, np.radians(0.03))
     started = score(qmul(to_ned, v.updateBatch(gyr, acc)["quat6D"]), q_true)
+    v = VQF(dt, motionBiasEstEnabled=False)
+    v.setBiasEstimate(b0, np.radians(0.03))
+    lp_only = score(qmul(to_ned, v.updateBatch(gyr, acc)["quat6D"]), q_true)
     print(f"{os.path.basename(path)}: VQF online {plain[0]:.2f} / {plain[1]:.2f}, "
-          f"bias started from the first 9 s {started[0]:.2f} / {started[1]:.2f} "
+          f"bias started from the first 9 s {started[0]:.2f} / {started[1]:.2f}, "
+          f"the same without motion bias estimation {lp_only[0]:.2f} / {lp_only[1]:.2f} "
           "(inclination / heading RMSE, deg)")
 
 
@@ -118,6 +128,7 @@ def main():
         sys.exit(f"vqf-reference: no RepoIMU CSV files in {data}")
     rows = []
     fits = []
+    lp_only = {1.0: [], 3.0: []}
     print(f"{'file':40} {'VQF online':>16} {'VQF, rest bias':>16}   rest bias (deg/s)")
     for f in files:
         t, dt, gyr, acc, q_true, to_ned = load(f)
@@ -127,11 +138,16 @@ def main():
         v.setBiasEstimate(rest_bias, np.radians(0.03))
         started = score(qmul(to_ned, v.updateBatch(gyr, acc)["quat6D"]), q_true)
         rows.append(plain + started)
+        for tau, scores in lp_only.items():
+            q = VQF(dt, tauAcc=tau, motionBiasEstEnabled=False).updateBatch(gyr, acc)["quat6D"]
+            scores.append(score(qmul(to_ned, q), q_true)[0])
         fits.append((os.path.basename(f), rest_bias, best_constant_bias(t, gyr, q_true)))
         print(f"{os.path.basename(f):40} {plain[0]:6.2f} / {plain[1]:6.2f}  {started[0]:6.2f} / "
               f"{started[1]:6.2f}   {np.degrees(rest_bias).round(3)}")
     m = np.mean(rows, 0)
     print(f"{'mean':40} {m[0]:6.2f} / {m[1]:6.2f}  {m[2]:6.2f} / {m[3]:6.2f}")
+    print("VQF's accelerometer low-pass alone (motion bias estimation off), mean inclination: "
+          + ", ".join(f"tauAcc {tau:g} s {np.mean(s):.2f}" for tau, s in lp_only.items()))
     print()
     print(f"{'file':40} {'rest bias x y z (deg/s)':>24}   {'best constant bias x y z':>24}")
     for name, rest, best in fits:
