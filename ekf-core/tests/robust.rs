@@ -92,7 +92,7 @@ fn a_knock_burst_shorter_than_0_2_s_does_not_move_the_tilt() {
     assert!(knocked < quiet + 0.05, "tilt error {knocked}° with knocks, {quiet}° without");
 }
 
-/// A hand's or a wave's back-and-forth: 0.3 g of north–south acceleration at 1 Hz on a level,
+/// A hand's or a wave's back-and-forth: 0.3 g of north–south acceleration at 1 Hz on a level
 /// board that does not turn. The tilt follows the NED low-pass of the specific force,
 /// two first-order stages of w·τ/2 each (τ = `ekf.accel_time_constant` = 1.5 s; the motion
 /// weight w = m/(m + 10⁻³) with the motion level m ≈ 0.3²/2 = 0.045 g², so w ≈ 0.978): each
