@@ -9,7 +9,10 @@
 //! `cargo run --release -p host-tests --example handheld -- [ACCEL_SCALE] [NAME=VALUE...]`:
 //! the linear accelerations scaled by ACCEL_SCALE (default 1; 0.3 for about 0.15 g), the EKF's
 //! settings in the device's language. With `HANDHELD_TRACE=FILE` the plain seed-1 trace is
-//! written there too (for `scripts/vqf-reference --trace FILE`).
+//! written there too (for `scripts/vqf-reference --trace FILE`). With `HANDHELD_MOVING_START=1`
+//! the motion starts at power-on (no still start) and the simulated gyro has no bias, so the
+//! configured bias the EKF starts from (the iNEMO board's, up to 3.4 °/s) is wrong and only
+//! learning in motion can correct it.
 use host_tests::config::ReplayConfig;
 use host_tests::real::score;
 use host_tests::replay::FilterKind;
@@ -19,8 +22,12 @@ use host_tests::trace::{TraceColumns, TraceWriter};
 
 const D: f64 = std::f64::consts::PI / 180.0;
 
+fn moving_start() -> bool {
+    std::env::var("HANDHELD_MOVING_START").is_ok_and(|v| v == "1")
+}
+
 fn sine(amp: f64, freq_hz: f64, phase: f64) -> Profile {
-    Profile::Sine { start: 10.0, amp, freq_hz, phase }
+    Profile::Sine { start: if moving_start() { 0.0 } else { 10.0 }, amp, freq_hz, phase }
 }
 
 fn sum(v: Vec<Profile>) -> Profile {
@@ -64,12 +71,20 @@ fn run() -> Result<(), String> {
     }
     let cfg = rs.config(&base);
     let traj = trajectory(scale);
-    println!("hand-held motion, accelerations x{scale}, 100 Hz, 120 s, seeds 1-3");
+    let start = if moving_start() {
+        "moving start, simulated gyro bias 0 (configured: the iNEMO's)"
+    } else {
+        "10 s still start"
+    };
+    println!("hand-held motion, accelerations x{scale}, {start}, 100 Hz, 120 s, seeds 1-3");
     for realistic in [false, true] {
         let filters = [FilterKind::Ekf, FilterKind::Gyro, FilterKind::Cf];
         let mut sums = [(0.0, 0.0); 3];
         for seed in 1..=3u64 {
             let mut sensors = SensorModel { lever_arm: [0.0; 3], ..SensorModel::default() };
+            if moving_start() {
+                sensors.gyro_bias = [0.0; 3];
+            }
             if realistic {
                 sensors.realism = Some(Realism {
                     gyro_full_scale_dps: 2000.0,
