@@ -441,6 +441,52 @@ fn sim_flash_behaves_like_nor_flash() {
     f.erase(Page::B).unwrap();
 }
 
+/// The power cut of `SimFlash` as its documentation has it: clean, the interrupted step and
+/// every later one change nothing; torn, the interrupted erase leaves the first half of the
+/// page erased and the rest as it was, the interrupted program writes the low byte only; the
+/// steps after the cut change nothing either way. Steps count erases and programs, and the
+/// last half-word of a page is programmable.
+#[test]
+fn sim_flash_power_cuts_are_clean_or_torn_as_documented() {
+    let half = SIM_PAGE_SIZE / 2;
+    let programmed = |f: &mut SimFlash| {
+        for off in (0..SIM_PAGE_SIZE).step_by(2) {
+            f.program(Page::A, off, 0x0F0F).unwrap();
+        }
+    };
+    for torn in [false, true] {
+        // An erase cut.
+        let mut f = SimFlash::new();
+        programmed(&mut f);
+        assert_eq!(f.steps, SIM_PAGE_SIZE / 2);
+        assert!(!f.is_off());
+        f.cut_power_after(0, torn);
+        assert_eq!(f.erase(Page::A), Err(FlashError::PowerLoss));
+        assert!(f.is_off());
+        let first = if torn { 0xFF } else { 0x0F };
+        assert!(f.page(Page::A)[..half].iter().all(|&b| b == first), "torn {torn}");
+        assert!(f.page(Page::A)[half..].iter().all(|&b| b == 0x0F), "torn {torn}");
+        // Off: a second erase changes nothing, torn or not.
+        let before = f.clone();
+        assert_eq!(f.erase(Page::B), Err(FlashError::PowerLoss));
+        assert_eq!(f.program(Page::B, 0, 0x1234), Err(FlashError::PowerLoss));
+        assert_eq!(f, before);
+        f.power_on();
+        assert!(!f.is_off());
+        f.erase(Page::A).unwrap();
+        assert_eq!(f.steps, SIM_PAGE_SIZE / 2 + 1);
+        // A program cut: the low byte only, when torn.
+        f.program(Page::B, SIM_PAGE_SIZE - 2, 0xA55A).unwrap();
+        assert_eq!(&f.page(Page::B)[SIM_PAGE_SIZE - 2..], &[0x5A, 0xA5]);
+        f.cut_power_after(0, torn);
+        assert_eq!(f.program(Page::B, 4, 0x1234), Err(FlashError::PowerLoss));
+        let low = if torn { 0x34 } else { 0xFF };
+        assert_eq!(&f.page(Page::B)[4..6], &[low, 0xFF], "torn {torn}");
+        assert_eq!(f.program(Page::B, 8, 0x1234), Err(FlashError::PowerLoss));
+        assert_eq!(&f.page(Page::B)[8..10], &[0xFF, 0xFF]);
+    }
+}
+
 #[test]
 fn registry_values_survive_a_save_exactly() {
     // Every setting at an extreme of its range, saved and loaded bit for bit.
