@@ -211,6 +211,36 @@ fn ranges_are_inclusive_and_checked_in_user_units() {
     }
 }
 
+/// Whatever `parse` takes, `set` takes: the value is converted to internal units and back
+/// before `check` compares it with the limits, which may move it by a rounding step past a
+/// limit (hence the slack). Every scaled setting, at and just inside its limits.
+#[test]
+fn every_value_parse_takes_is_set() {
+    let mut tried = 0;
+    for s in SETTINGS.iter().filter(|s| s.scale != Scale::One) {
+        let mut values = Vec::new();
+        for k in 0..200u32 {
+            let inward = |x: f32, up: bool| -> Option<f32> {
+                // `k` steps of one unit in the last place from `x` toward the inside.
+                let bits =
+                    if (x > 0.0) == up { x.to_bits() + k } else { x.to_bits().checked_sub(k)? };
+                (x != 0.0).then(|| f32::from_bits(bits))
+            };
+            values.extend(inward(s.max, false));
+            values.extend(inward(s.min, true));
+        }
+        for u in values {
+            let text = format!("{u}");
+            let fields = vec![text.as_str(); s.kind.fields()];
+            let v = s.parse(&fields).unwrap_or_else(|e| panic!("{} {text}: {e:?}", s.name));
+            let mut d = PipelineSettings::default();
+            assert!(s.set(&mut d, v), "{} {text} parsed but not set", s.name);
+            tried += 1;
+        }
+    }
+    assert!(tried > 1000, "{tried}");
+}
+
 /// The registry table of `docs/commands.md` matches the code row by row.
 #[test]
 fn docs_list_every_setting_exactly() {
