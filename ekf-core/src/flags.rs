@@ -119,4 +119,20 @@ mod tests {
         acc.remove(Flags::AT_REST);
         assert!(!acc.contains(Flags::AT_REST));
     }
+
+    /// Setting a flag that is already set leaves it set (`|` on the bits, not a toggle), and
+    /// `bits` is the raw word the firmware and the replay log report.
+    #[test]
+    fn setting_a_set_flag_keeps_it_and_bits_are_the_word() {
+        let both = Flags::AT_REST | Flags::ACCEL_USED;
+        assert_eq!(both | Flags::AT_REST, both);
+        let mut f = both;
+        f |= Flags::AT_REST;
+        f.insert(Flags::ACCEL_USED);
+        assert_eq!(f, both);
+        f.insert(Flags::TIME_GAP);
+        assert_eq!(f.bits(), 0x0304);
+        assert_eq!(Flags::NONE.bits(), 0);
+        assert_eq!(Flags::MOVING_START.bits(), 0x4000);
+    }
 }

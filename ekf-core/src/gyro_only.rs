@@ -118,9 +118,30 @@ mod tests {
     use super::*;
     use crate::{mathf::deg, Euler};
 
+    /// Still through the window with a gyro offset: initialised at its end with the offset as
+    /// the bias; `reset` starts a new window from the configured bias.
+    #[test]
+    fn the_window_measures_the_bias_and_reset_starts_it_again() {
+        let mut f = GyroOnly::new(Settings::default());
+        assert!(!f.is_initialised());
+        let b = Vec3::new(0.002, -0.001, 0.0005);
+        let level = Vec3::new(0.0, 0.0, -crate::GRAVITY);
+        let mut n = 0;
+        while !f.is_initialised() && n < 5000 {
+            f.update(&ImuSample::new(0.02, b, level));
+            n += 1;
+        }
+        assert!(f.is_initialised() && n > 1, "{n}");
+        assert!((f.gyro_bias() - b).norm() < 1e-6, "{:?}", f.gyro_bias());
+        f.reset();
+        assert!(!f.is_initialised());
+        assert_eq!(f.gyro_bias(), Settings::default().init.gyro_bias);
+    }
+
     #[test]
     fn integrates_a_constant_rate_exactly_and_drifts_with_bias() {
         let mut f = GyroOnly::new(Settings::default());
+        assert_eq!(f.name(), "gyro");
         f.set_attitude(Quaternion::IDENTITY, Vec3::ZERO);
         let w = Vec3::new(0.1, -0.2, 0.3);
         for _ in 0..500 {

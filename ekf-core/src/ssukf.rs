@@ -307,4 +307,30 @@ mod tests {
         let f = SsUkf::new(Settings::default(), p);
         assert_eq!(*f.params(), SsUkfParams::default());
     }
+
+    /// Each unusable parameter alone falls back (`W0`, α, β together); usable ones at the
+    /// edge of their domain are kept: `W0` = 0, any finite β.
+    #[test]
+    fn each_bad_parameter_alone_falls_back() {
+        let d = SsUkfParams::default();
+        let (w, a, b) = (0.0, 0.5, -1.0);
+        let good = SsUkfParams { w0: w, alpha: a, beta: b, ..d };
+        assert_eq!(good.sanitised(), good);
+        let almost_one = SsUkfParams { w0: 0.999, ..good };
+        assert_eq!(almost_one.sanitised(), almost_one);
+        for (w0, alpha, beta) in [
+            (f32::NAN, a, b),
+            (1.0, a, b),
+            (-0.1, a, b),
+            (w, 0.0, b),
+            (w, -0.5, b),
+            (w, f32::NAN, b),
+            (w, f32::INFINITY, b),
+            (w, a, f32::NAN),
+            (w, a, f32::INFINITY),
+        ] {
+            let p = SsUkfParams { w0, alpha, beta, ..d }.sanitised();
+            assert_eq!((p.w0, p.alpha, p.beta), (d.w0, d.alpha, d.beta), "{w0} {alpha} {beta}");
+        }
+    }
 }

@@ -279,4 +279,61 @@ mod tests {
         let f = Ukf::new(Settings::default(), p);
         assert_eq!(*f.params(), UkfParams::default());
     }
+
+    /// Each unusable parameter alone falls back (α, κ, β together); usable ones at the edge
+    /// of their domain are kept: any finite β, `n + κ` just above 0, a zero random walk.
+    #[test]
+    fn each_bad_parameter_alone_falls_back() {
+        let d = UkfParams::default();
+        let (a, k, b) = (0.5, -6.5, -1.0);
+        let good = UkfParams { alpha: a, kappa: k, beta: b, ..d };
+        assert_eq!(good.sanitised(), good);
+        for (alpha, kappa, beta) in [
+            (f32::NAN, k, b),
+            (0.0, k, b),
+            (-0.5, k, b),
+            (f32::INFINITY, k, b),
+            (a, -7.0, b),
+            (a, -8.0, b),
+            (a, f32::INFINITY, b),
+            (a, f32::NAN, b),
+            (a, k, f32::NAN),
+            (a, k, f32::NEG_INFINITY),
+        ] {
+            let p = UkfParams { alpha, kappa, beta, ..d }.sanitised();
+            assert_eq!(
+                (p.alpha, p.kappa, p.beta),
+                (d.alpha, d.kappa, d.beta),
+                "{alpha} {kappa} {beta}"
+            );
+        }
+        let kept = UkfParams {
+            accel_var_scale: 3.0,
+            bias_random_walk: 0.0,
+            initial_tilt_sigma: 0.1,
+            initial_yaw_sigma: 0.2,
+            initial_bias_sigma: 0.3,
+            ..d
+        };
+        assert_eq!(kept.sanitised(), kept);
+        for bad in [0.0, -1.0, f32::NAN, f32::INFINITY] {
+            let p = UkfParams {
+                accel_var_scale: bad,
+                initial_tilt_sigma: bad,
+                initial_yaw_sigma: bad,
+                initial_bias_sigma: bad,
+                ..kept
+            }
+            .sanitised();
+            assert_eq!(p.accel_var_scale, d.accel_var_scale, "{bad}");
+            assert_eq!(p.initial_tilt_sigma, d.initial_tilt_sigma, "{bad}");
+            assert_eq!(p.initial_yaw_sigma, d.initial_yaw_sigma, "{bad}");
+            assert_eq!(p.initial_bias_sigma, d.initial_bias_sigma, "{bad}");
+            assert_eq!(p.bias_random_walk, 0.0);
+        }
+        for bad in [-1e-12, f32::NAN, f32::INFINITY] {
+            let p = UkfParams { bias_random_walk: bad, ..kept }.sanitised();
+            assert_eq!(p, UkfParams { bias_random_walk: d.bias_random_walk, ..kept }, "{bad}");
+        }
+    }
 }

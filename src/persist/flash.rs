@@ -1,7 +1,5 @@
 //! The flash interface the settings store needs, and a simulated flash for host tests.
 
-use core::fmt;
-
 /// One of the two settings pages.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Page {
@@ -56,20 +54,6 @@ pub enum FlashError {
     /// Simulated power loss ([`SimFlash`] only): nothing more is written until
     /// [`SimFlash::power_on`].
     PowerLoss,
-}
-
-impl fmt::Display for FlashError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
-            FlashError::OutOfBounds => "flash access out of bounds",
-            FlashError::Erase => "flash erase failed",
-            FlashError::Program => "flash program failed",
-            FlashError::Locked => "flash controller locked",
-            FlashError::WriteProtected => "flash page write-protected",
-            FlashError::Timeout => "flash controller busy too long",
-            FlashError::PowerLoss => "power lost",
-        })
-    }
 }
 
 /// Two erasable pages of NOR flash, as on the STM32F103RE: a page erases to all-ones

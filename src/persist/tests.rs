@@ -61,6 +61,11 @@ fn sequence_numbers_wrap() {
     assert!(is_newer(0, u32::MAX));
     assert!(!is_newer(u32::MAX, 0));
     assert!(!is_newer(5, 5));
+    // Exactly half the range apart: neither is newer (the module documentation: `b − a`
+    // (mod 2³²) < 2³¹), so `load` keeps page A's record.
+    assert!(is_newer(0x7FFF_FFFF, 0) && !is_newer(0, 0x7FFF_FFFF));
+    assert!(!is_newer(0x8000_0000, 0) && !is_newer(0, 0x8000_0000));
+    assert!(!is_newer(3, 0x8000_0003) && !is_newer(0x8000_0003, 3));
     let mut f = SimFlash::new();
     // A record with sequence u32::MAX in A; the next save goes to B with sequence 0 and wins.
     write_raw(&mut f, Page::A, u32::MAX, FORMAT_VERSION, &[(111, &[7, 0])]);
@@ -70,22 +75,41 @@ fn sequence_numbers_wrap() {
     assert_eq!(load(&f).settings, s);
     assert_eq!(save(&mut f, &variant(4)).unwrap(), Saved { page: Page::A, seq: 1 });
     assert_eq!(load(&f).settings, variant(4));
+    // Two records half the range apart: neither is newer, page A's is taken.
+    for (a, b) in [(0, 0x8000_0000), (0x8000_0000, 0)] {
+        let mut f = SimFlash::new();
+        write_raw(&mut f, Page::A, a, FORMAT_VERSION, &[(111, &[7, 0])]);
+        write_raw(&mut f, Page::B, b, FORMAT_VERSION, &[(111, &[9, 0])]);
+        let l = load(&f);
+        assert_eq!(l.source, Source::Flash { page: Page::A, seq: a });
+        assert_eq!(l.settings.output_rate_hz, 7);
+    }
 }
 
 /// Write a record by hand: any entries, any version.
 fn write_raw(f: &mut SimFlash, page: Page, seq: u32, version: u16, entries: &[(u16, &[u8])]) {
+    write_payload(f, page, seq, version, &payload_of(entries), entries.len() as u16);
+}
+
+/// The payload bytes of `entries` (`id`, length, value).
+fn payload_of(entries: &[(u16, &[u8])]) -> Vec<u8> {
     let mut payload = Vec::new();
     for (id, v) in entries {
         payload.extend_from_slice(&id.to_le_bytes());
         payload.push(v.len() as u8);
         payload.extend_from_slice(v);
     }
+    payload
+}
+
+/// Write a valid record (commit word, CRC) by hand around any payload bytes and entry count.
+fn write_payload(f: &mut SimFlash, page: Page, seq: u32, version: u16, payload: &[u8], count: u16) {
     let mut rec = Vec::new();
     rec.extend_from_slice(&version.to_le_bytes());
     rec.extend_from_slice(&seq.to_le_bytes());
     rec.extend_from_slice(&(payload.len() as u16).to_le_bytes());
-    rec.extend_from_slice(&(entries.len() as u16).to_le_bytes());
-    rec.extend_from_slice(&payload);
+    rec.extend_from_slice(&count.to_le_bytes());
+    rec.extend_from_slice(payload);
     if rec.len() % 2 == 1 {
         rec.push(0);
     }
@@ -121,6 +145,116 @@ fn old_and_new_records_stay_readable() {
     // An unknown format version is not read at all.
     write_raw(&mut f, Page::A, 1, FORMAT_VERSION + 1, &[(102, &density)]);
     assert_eq!(load(&f).source, Source::Defaults);
+}
+
+/// A record's entry count and payload length bound what is read: entries past the count are
+/// not read; an entry whose value runs past the payload is skipped, and a fragment shorter
+/// than an entry's header (id, length) is not an entry. Nothing beyond the payload (the
+/// padding, the CRC) is ever taken for an entry.
+#[test]
+fn the_count_and_the_payload_length_bound_the_entries_read() {
+    let density = 1000.0f32.to_le_bytes();
+    let mut expect = PipelineSettings::default();
+    expect.depth.water_density_kg_m3 = 1000.0;
+    let all_but_one = crate::registry::SETTINGS.len() as u16 - 1;
+    let loaded = |payload: &[u8], count: u16| {
+        let mut f = SimFlash::new();
+        write_payload(&mut f, Page::A, 1, FORMAT_VERSION, payload, count);
+        let l = load(&f);
+        assert_eq!(l.source, Source::Flash { page: Page::A, seq: 1 });
+        (l.settings, l.skipped, l.missing)
+    };
+    // Two good entries, a count of one: the second is not read.
+    let two = payload_of(&[(102, &density), (111, &[7, 0])]);
+    assert_eq!(loaded(&two, 1), (expect, 0, all_but_one));
+    assert_eq!(loaded(&two, 2).0.output_rate_hz, 7);
+    // The second entry's value cut after one of its two bytes (payload 11 bytes, then the
+    // padding byte 0): skipped, not read as 7 with the padding.
+    let mut cut = payload_of(&[(102, &density)]);
+    cut.extend_from_slice(&[111, 0, 2, 7]);
+    assert_eq!(loaded(&cut, 2), (expect, 1, all_but_one));
+    // Only two bytes of the second entry's header: the payload ends there.
+    let mut frag = payload_of(&[(102, &density)]);
+    frag.extend_from_slice(&[111, 0]);
+    assert_eq!(loaded(&frag, 2), (expect, 0, all_but_one));
+}
+
+/// A record that fills the 2 KiB page to its last byte is valid (12-byte header, 2032 bytes
+/// of payload, 4 bytes of CRC: eight entries of unknown ids, all skipped).
+#[test]
+fn a_record_filling_the_page_exactly_is_valid() {
+    let big = [0u8; 255];
+    let mut entries: Vec<(u16, &[u8])> = vec![(999, &big); 7];
+    entries.push((998, &big[..223]));
+    let payload = payload_of(&entries);
+    assert_eq!(HEADER_LEN + payload.len() + CRC_LEN, SIM_PAGE_SIZE);
+    let mut f = SimFlash::new();
+    write_payload(&mut f, Page::B, 4, FORMAT_VERSION, &payload, 8);
+    let l = load(&f);
+    assert_eq!(l.source, Source::Flash { page: Page::B, seq: 4 });
+    assert_eq!((l.settings, l.skipped), (PipelineSettings::default(), 8));
+}
+
+/// A [`SimFlash`] seen through pages of `size` bytes (a smaller part's), or, `deaf`, one that
+/// acknowledges every erase and program and changes nothing.
+struct Odd {
+    inner: SimFlash,
+    size: usize,
+    deaf: bool,
+}
+
+impl Flash for Odd {
+    fn page_size(&self) -> usize {
+        self.size
+    }
+    fn read(&self, page: Page, offset: usize, buf: &mut [u8]) -> Result<(), FlashError> {
+        if offset + buf.len() > self.size {
+            return Err(FlashError::OutOfBounds);
+        }
+        self.inner.read(page, offset, buf)
+    }
+    fn erase(&mut self, page: Page) -> Result<(), FlashError> {
+        if self.deaf {
+            return Ok(());
+        }
+        self.inner.erase(page)
+    }
+    fn program(&mut self, page: Page, offset: usize, value: u16) -> Result<(), FlashError> {
+        if offset + 2 > self.size {
+            return Err(FlashError::OutOfBounds);
+        }
+        if self.deaf {
+            return Ok(());
+        }
+        self.inner.program(page, offset, value)
+    }
+}
+
+/// The current record is 554 bytes (`record_size_of_the_current_registry`): a page of
+/// exactly that size takes it, a page two bytes smaller is refused as too small before
+/// anything is written.
+#[test]
+fn a_record_larger_than_the_page_is_refused_before_any_write() {
+    let s = variant(5);
+    let mut f = Odd { inner: SimFlash::new(), size: 554, deaf: false };
+    assert_eq!(save(&mut f, &s), Ok(Saved { page: Page::A, seq: 1 }));
+    assert_eq!(load(&f).settings, s);
+    let mut f = Odd { inner: SimFlash::new(), size: 552, deaf: false };
+    assert_eq!(save(&mut f, &s), Err(SaveError::TooLarge));
+    assert_eq!(f.inner.steps, 0);
+}
+
+/// A flash that acknowledges the writes of a save but keeps its old contents: the old record
+/// read back is not the one just written, so the save fails (`SAVE` must not report it done).
+#[test]
+fn a_save_that_never_reached_the_flash_fails_its_verification() {
+    let mut inner = SimFlash::new();
+    save(&mut inner, &variant(1)).unwrap(); // page A, seq 1
+    save(&mut inner, &variant(2)).unwrap(); // page B, seq 2
+    let mut f = Odd { inner, size: SIM_PAGE_SIZE, deaf: true };
+    // The save goes to page A, which still holds the valid record of sequence 1.
+    assert_eq!(save(&mut f, &variant(3)), Err(SaveError::Verify));
+    assert_eq!(load(&f).settings, variant(2));
 }
 
 /// A flash with one record of `settings` in `page`, sequence `seq`, that lacks the settings
@@ -305,6 +439,52 @@ fn sim_flash_behaves_like_nor_flash() {
     assert_eq!(&f.page(Page::B)[2..6], &[0xCD, 0xAB, 0xFF, 0xFF]);
     f.power_on();
     f.erase(Page::B).unwrap();
+}
+
+/// The power cut of `SimFlash` as its documentation has it: clean, the interrupted step and
+/// every later one change nothing; torn, the interrupted erase leaves the first half of the
+/// page erased and the rest as it was, the interrupted program writes the low byte only; the
+/// steps after the cut change nothing either way. Steps count erases and programs, and the
+/// last half-word of a page is programmable.
+#[test]
+fn sim_flash_power_cuts_are_clean_or_torn_as_documented() {
+    let half = SIM_PAGE_SIZE / 2;
+    let programmed = |f: &mut SimFlash| {
+        for off in (0..SIM_PAGE_SIZE).step_by(2) {
+            f.program(Page::A, off, 0x0F0F).unwrap();
+        }
+    };
+    for torn in [false, true] {
+        // An erase cut.
+        let mut f = SimFlash::new();
+        programmed(&mut f);
+        assert_eq!(f.steps, SIM_PAGE_SIZE / 2);
+        assert!(!f.is_off());
+        f.cut_power_after(0, torn);
+        assert_eq!(f.erase(Page::A), Err(FlashError::PowerLoss));
+        assert!(f.is_off());
+        let first = if torn { 0xFF } else { 0x0F };
+        assert!(f.page(Page::A)[..half].iter().all(|&b| b == first), "torn {torn}");
+        assert!(f.page(Page::A)[half..].iter().all(|&b| b == 0x0F), "torn {torn}");
+        // Off: a second erase changes nothing, torn or not.
+        let before = f.clone();
+        assert_eq!(f.erase(Page::B), Err(FlashError::PowerLoss));
+        assert_eq!(f.program(Page::B, 0, 0x1234), Err(FlashError::PowerLoss));
+        assert_eq!(f, before);
+        f.power_on();
+        assert!(!f.is_off());
+        f.erase(Page::A).unwrap();
+        assert_eq!(f.steps, SIM_PAGE_SIZE / 2 + 1);
+        // A program cut: the low byte only, when torn.
+        f.program(Page::B, SIM_PAGE_SIZE - 2, 0xA55A).unwrap();
+        assert_eq!(&f.page(Page::B)[SIM_PAGE_SIZE - 2..], &[0x5A, 0xA5]);
+        f.cut_power_after(0, torn);
+        assert_eq!(f.program(Page::B, 4, 0x1234), Err(FlashError::PowerLoss));
+        let low = if torn { 0x34 } else { 0xFF };
+        assert_eq!(&f.page(Page::B)[4..6], &[low, 0xFF], "torn {torn}");
+        assert_eq!(f.program(Page::B, 8, 0x1234), Err(FlashError::PowerLoss));
+        assert_eq!(&f.page(Page::B)[8..10], &[0xFF, 0xFF]);
+    }
 }
 
 #[test]

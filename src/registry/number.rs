@@ -424,6 +424,11 @@ mod tests {
             parse_number("123456789012345678901234567890"),
             Some(1.234_567_890_123_456_8e29)
         );
+        // Twenty significant digits: the twentieth is dropped (with it the digits would
+        // overflow their `u64`) and still scales the value.
+        assert_eq!(parse_number("99999999999999999999"), Some(1e20));
+        assert_eq!(parse_number("18446744073709551616"), Some(18_446_744_073_709_551_616.0));
+        assert_eq!(parse_number("18446744073709551616"), "18446744073709551616".parse().ok());
         assert_eq!(parse_number(&format!("0.{}1", "0".repeat(70))).map(|v| v as f32), Some(0.0));
         assert_eq!(parse_number(&format!("0.{}1", "0".repeat(40))).map(|v| v as f32), Some(1e-41));
         assert_eq!(parse_uint("50"), Some(50));

@@ -187,6 +187,60 @@ fn the_longest_get_reply_and_set_command_fit_a_sentence() {
     }
 }
 
+/// Ranges are inclusive and in user units: an integer at either limit is taken, one past it
+/// refused; an internal value (radians) is checked after its conversion to degrees, by
+/// `set` and by the flash record's `decode` alike.
+#[test]
+fn ranges_are_inclusive_and_checked_in_user_units() {
+    let r = find("filter.rate").unwrap();
+    assert_eq!(r.range(), (10.0, 200.0));
+    assert_eq!(r.parse(&["10"]), Ok(Value::U16(10)));
+    assert_eq!(r.parse(&["200"]), Ok(Value::U16(200)));
+    assert_eq!(r.parse(&["9"]), Err(ValueError::Range));
+    assert_eq!(r.parse(&["0"]), Err(ValueError::Range));
+    // init.yaw0: −180° to 180°, stored in rad. 3.1 rad = 177.6°, 3.2 rad = 183.3°.
+    let y = find("init.yaw0").unwrap();
+    assert_eq!(y.range(), (-180.0, 180.0));
+    for (rad, ok) in [(3.1f32, true), (core::f32::consts::PI, true), (3.2, false)] {
+        for v in [rad, -rad] {
+            assert_eq!(y.check(&Value::F32(v)), ok, "{v}");
+            assert_eq!(y.decode(&v.to_le_bytes()).is_some(), ok, "{v}");
+            let mut s = PipelineSettings::default();
+            assert_eq!(y.set(&mut s, Value::F32(v)), ok, "{v}");
+        }
+    }
+}
+
+/// Whatever `parse` takes, `set` takes: the value is converted to internal units and back
+/// before `check` compares it with the limits, which may move it by a rounding step past a
+/// limit (hence the slack). Every scaled setting, at and just inside its limits.
+#[test]
+fn every_value_parse_takes_is_set() {
+    let mut tried = 0;
+    for s in SETTINGS.iter().filter(|s| s.scale != Scale::One) {
+        let mut values = Vec::new();
+        for k in 0..200u32 {
+            let inward = |x: f32, up: bool| -> Option<f32> {
+                // `k` steps of one unit in the last place from `x` toward the inside.
+                let bits =
+                    if (x > 0.0) == up { x.to_bits() + k } else { x.to_bits().checked_sub(k)? };
+                (x != 0.0).then(|| f32::from_bits(bits))
+            };
+            values.extend(inward(s.max, false));
+            values.extend(inward(s.min, true));
+        }
+        for u in values {
+            let text = format!("{u}");
+            let fields = vec![text.as_str(); s.kind.fields()];
+            let v = s.parse(&fields).unwrap_or_else(|e| panic!("{} {text}: {e:?}", s.name));
+            let mut d = PipelineSettings::default();
+            assert!(s.set(&mut d, v), "{} {text} parsed but not set", s.name);
+            tried += 1;
+        }
+    }
+    assert!(tried > 1000, "{tried}");
+}
+
 /// The registry table of `docs/commands.md` matches the code row by row.
 #[test]
 fn docs_list_every_setting_exactly() {
@@ -195,6 +249,8 @@ fn docs_list_every_setting_exactly() {
     for s in &SETTINGS {
         let mut row = String::new();
         s.doc_row(&mut row).unwrap();
+        // (An empty row would match any empty line of the document.)
+        assert!(row.starts_with(&format!("| `{}` | {} |", s.name, s.kind.name())), "{row}");
         if !doc.lines().any(|l| l == row) {
             missing.push(row);
         }

@@ -57,6 +57,20 @@ fn initial_covariance_maps_angles_to_quaternion_components() {
     let gz = g.column(2).into_owned();
     let v = (gz.transpose() * p.fixed_view::<4, 4>(0, 0) * gz)[(0, 0)];
     assert!((v - 0.25 * 0.08 * 0.08).abs() < 1e-9, "{v}");
+    // The tilt directions ½Γ_x, ½Γ_y and the radial direction q each get σ_t²/4 (the radial
+    // one from the ¼σ_t² q qᵀ term); Γ's columns and q are orthonormal, so these are
+    // uncorrelated.
+    let pq = p.fixed_view::<4, 4>(0, 0).into_owned();
+    let q = c.x.fixed_rows::<4>(0).into_owned();
+    let dirs = [g.column(0).into_owned(), g.column(1).into_owned(), gz, q];
+    let want = [0.03 * 0.03, 0.03 * 0.03, 0.08 * 0.08, 0.03 * 0.03].map(|s2| 0.25 * s2);
+    for (i, a) in dirs.iter().enumerate() {
+        for (j, b) in dirs.iter().enumerate() {
+            let v = (a.transpose() * pq * b)[(0, 0)];
+            let w = if i == j { want[i] } else { 0.0 };
+            assert!((v - w).abs() < 1e-9, "{i} {j}: {v}");
+        }
+    }
     assert!((p[(5, 5)] - 0.003 * 0.003).abs() < 1e-12);
 }
 
