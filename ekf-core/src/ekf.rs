@@ -270,7 +270,7 @@ impl Ekf {
         // motion, accelerations average out in the (almost inertial) NED frame while gravity
         // stays. Two first-order stages of w·τ/2 each (critically damped, second order): the
         // same delay as one stage of w·τ, so the same gyro error accumulates over it, but a
-        // motion at angular frequency ω ≫ 1/τ passes 4/(ωτ)² instead of 1/(ωτ) — 0.06 instead
+        // motion at angular frequency ω ≫ 1/τ passes 4/(ωτ)² instead of 1/(ωτ) — 0.045 instead
         // of 0.11 at 1 Hz and τ = 1.5 s — and no overshoot when w changes (a Butterworth
         // stage's momentum overshot at the start of motion). α = dt / (w·τ/2 + dt), written
         // with one division.
