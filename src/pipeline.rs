@@ -5,7 +5,7 @@
 //! emulated run (`ekf-emu`) calls the very same function.
 
 use ekf_core::{
-    conditioning::Conditioner, mathf, AttitudeFilter, Ekf, Euler, Flags, Quaternion, Vec3, GRAVITY,
+    conditioning::Conditioner, mathf, AttitudeFilter, Ekf, Flags, Quaternion, Vec3, GRAVITY,
 };
 
 pub use crate::settings::{PipelineSettings, SentenceSet};
@@ -231,7 +231,7 @@ impl Pipeline {
         let attitude = self.ekf.attitude();
         let mut sentences = Sentences::default();
         if self.cycle % self.settings.output_divider() == 0 {
-            let euler = Euler::from_quaternion(attitude);
+            let euler = self.ekf.euler();
             let set = self.settings.sentences;
             let valid = attitude_valid(self.interval_status);
             let tilt_ok = tilt_valid(self.interval_status);
@@ -341,6 +341,7 @@ mod tests {
     use crate::board;
     use crate::nmea::verify;
     use ekf_core::mathf::deg;
+    use ekf_core::Euler;
 
     /// A flat, still board, face up: the LSM303DLH reads +1 g on its z axis.
     const FLAT: [f32; 3] = [0.0, 0.0, 1.0];

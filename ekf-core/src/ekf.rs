@@ -20,7 +20,7 @@ use crate::{
     rest::{RestBlock, RestDetector},
     settings::Settings,
     validate::{self, Checked},
-    Flags, ImuSample, Quaternion, Vec3,
+    Euler, Flags, ImuSample, Quaternion, Vec3,
 };
 
 /// Largest attitude-error variance before the health check resets the covariance, rad².
@@ -36,6 +36,11 @@ pub const KNOCK_SIGMAS: f32 = 3.0;
 /// accelerometer in proportion `ROBUST_NIS / NIS` (a Huber-type weight on the bias only): the
 /// median of χ²₂ is 1.4, so consistent samples are untouched.
 const ROBUST_NIS: f32 = 2.0;
+
+/// At the onset of motion (a deviation of the specific force beyond [`KNOCK_SIGMAS`] standard
+/// deviations of the current motion level) the motion level is averaged this many times
+/// faster.
+const ONSET_SPEEDUP: f32 = 10.0;
 
 /// Longest knock, s: rejections that last longer raise the motion level.
 pub const KNOCK_MAX_S: f32 = 0.2;
@@ -76,14 +81,23 @@ pub struct Ekf {
     accel_h: [f32; 2],
     /// The low-pass's first stage, g (same frame).
     accel_h1: [f32; 2],
+    /// The previous sample's deviation of the specific force's norm from 1 g, g.
+    norm_prev: f32,
+    /// Mean square of the norm's change from one sample to the next, g² (over
+    /// `motion_time_constant`): for vibration and noise, whose samples are independent, twice
+    /// their variance along one axis, i.e. their variance in the two horizontal axes together.
+    step_var: f32,
+    /// `vib_rate²`, (rad/s)², and `vib_time_constant · vib_rate²`, s/s².
+    vib_rate2: (f32, f32),
     /// The previous sample's bias-corrected rate, rad/s (`None` when it was invalid).
     prev_rate: Option<Vec3>,
     /// `1 / motion_time_constant`, 1/s.
     inv_motion_tau: f32,
     /// `3·accel_var`: the motion level of the datasheet noise alone, g².
     accel_var3: f32,
-    /// `dt` of the last accelerometer update and its motion-average weight `min(dt/τ, 1)`.
-    motion_dt: (f32, f32),
+    /// `dt` of the last accelerometer update, its motion-average weight `min(dt/τ, 1)` and the
+    /// onset weight `min(ONSET_SPEEDUP·dt/τ, 1)`.
+    motion_dt: (f32, f32, f32),
 }
 
 impl Ekf {
@@ -115,10 +129,16 @@ impl Ekf {
             motion_var: 0.0,
             accel_h: [0.0; 2],
             accel_h1: [0.0; 2],
+            norm_prev: 0.0,
+            step_var: 0.0,
+            vib_rate2: {
+                let w2 = settings.ekf.vib_rate * settings.ekf.vib_rate;
+                (w2, settings.ekf.vib_time_constant * w2)
+            },
             prev_rate: None,
             inv_motion_tau: 1.0 / settings.ekf.motion_time_constant.max(1e-3),
             accel_var3: 3.0 * settings.noise.accel_var * settings.ekf.accel_var_scale,
-            motion_dt: (0.0, 0.0),
+            motion_dt: (0.0, 0.0, 0.0),
         }
     }
 
@@ -167,6 +187,8 @@ impl Ekf {
         self.external_yaw = 0.0;
         self.accel_h = [0.0; 2];
         self.accel_h1 = [0.0; 2];
+        self.norm_prev = 0.0;
+        self.step_var = 0.0;
         self.motion_var = 0.0;
         self.moving_start = false;
     }
@@ -210,9 +232,15 @@ impl Ekf {
             }
         }
         self.prev_rate = rate;
-        let r = self.q.to_rotation_matrix();
-        let dt = c.dt_cov;
         let yaw = self.yaw_row();
+        // Without a yaw row nothing reads R's bottom-left pair (A's yaw row, below, and the
+        // accelerometer update take the tilt rows and the third column only).
+        let r = if yaw == YawRow::Untracked {
+            self.q.to_rotation_matrix_tilt()
+        } else {
+            self.q.to_rotation_matrix()
+        };
+        let dt = c.dt_cov;
         // A = R·dt; its yaw row only when the yaw error is tracked.
         let rows = if yaw == YawRow::Untracked { 2 } else { 3 };
         let mut a: Mat3 = [[0.0; 3]; 3];
@@ -230,9 +258,9 @@ impl Ekf {
 
     /// Accelerometer tilt correction: motion statistics, gate, the low-pass in the estimate's
     /// NED frame, then the Kalman update with yaw-split. `r` is the predicted rotation.
-    fn accel_update(&mut self, dt: f32, a_g: Vec3, norm_g: f32, r: &Mat3) -> Flags {
+    /// `rate2` is the squared rotation rate, (rad/s)².
+    fn accel_update(&mut self, dt: f32, a_g: Vec3, norm_g: f32, r: &Mat3, rate2: f32) -> Flags {
         let e = &self.settings.ekf;
-        let lp = e.accel_time_constant;
         // The horizontal specific force in the estimate's NED frame and its deviation from the
         // low-pass's first stage; with the deviation of the norm from 1 g for the vertical, the
         // motion level `m` (g²) is their mean square over `motion_time_constant`.
@@ -243,15 +271,25 @@ impl Ekf {
         let dev = [an[0] - self.accel_h1[0], an[1] - self.accel_h1[1]];
         let dn = norm_g - 1.0;
         let dev2 = dev[0] * dev[0] + dev[1] * dev[1] + dn * dn;
+        // The norm's change since the previous sample: the vibration's share (below).
+        let step = dn - self.norm_prev;
+        self.norm_prev = dn;
         let m = self.motion_var;
         if dt.to_bits() != self.motion_dt.0.to_bits() {
-            // Once per sample rate: the weight of one sample in the motion level's average.
-            self.motion_dt = (dt, fcmp::min(dt * self.inv_motion_tau, 1.0));
+            // Once per sample rate: the weight of one sample in the motion level's average, and
+            // at the onset of motion.
+            let w = dt * self.inv_motion_tau;
+            self.motion_dt = (dt, fcmp::min(w, 1.0), fcmp::min(ONSET_SPEEDUP * w, 1.0));
         }
-        let m_next = m + self.motion_dt.1 * (dev2 - m);
         // A knock is a jump far beyond the current motion level (KNOCK_SIGMAS standard
         // deviations), so swinging or bobbing is not mistaken for one.
         let allowance = KNOCK_SIGMAS * KNOCK_SIGMAS * m;
+        // Motion sets in at once: a deviation beyond the same KNOCK_SIGMAS standard deviations
+        // (for noise alone χ²₃/3 > 9, six samples in a million) is averaged in ONSET_SPEEDUP
+        // times faster, so that the low-pass lengthens within a tenth of the
+        // motion average's time constant, before the motion's first swing has pulled the tilt.
+        let k = if fcmp::gt(dev2, allowance) { self.motion_dt.2 } else { self.motion_dt.1 };
+        let m_next = m + k * (dev2 - m);
         let bypass = match self.gate.pre_check(dt, a_g, norm_g, allowance) {
             PreCheck::Reject(f) => {
                 // A knock is short: rejected samples raise the motion level only once the
@@ -265,18 +303,34 @@ impl Ekf {
             PreCheck::Pass { bypass_innovation } => bypass_innovation,
         };
         self.motion_var = m_next;
+        let m = m_next; // this sample counts in its own weight
+        self.step_var += self.motion_dt.1 * (step * step - self.step_var);
         // Motion weight w = m / (m + motion_scale) in [0, 1): 0 still, → 1 in strong motion.
-        // The low-pass delays by w·accel_time_constant: still, each sample is used as it is; in
-        // motion, accelerations average out in the (almost inertial) NED frame while gravity
-        // stays. Two first-order stages of w·τ/2 each (critically damped, second order): the
-        // same delay as one stage of w·τ, so the same gyro error accumulates over it, but a
-        // motion at angular frequency ω ≫ 1/τ passes 4/(ωτ)² instead of 1/(ωτ) — 0.045 instead
-        // of 0.11 at 1 Hz and τ = 1.5 s — and no overshoot when w changes (a Butterworth
-        // stage's momentum overshot at the start of motion). α = dt / (w·τ/2 + dt), written
-        // with one division.
-        let mm = m + e.motion_scale;
-        let dmm = dt * mm;
-        let alpha = dmm / (mathf::half(lp * m) + dmm);
+        // The low-pass delays by w times a time constant: still, each sample is used as it is;
+        // in motion, accelerations average out in the (almost inertial) NED frame while gravity
+        // stays. Two first-order stages of half the delay each (critically damped, second
+        // order): the same delay as one stage, so the same gyro error accumulates over it, but
+        // a motion at angular frequency ω ≫ 1/τ passes 4/(ωτ)² instead of 1/(ωτ) — 0.033
+        // instead of 0.091 at 1 Hz and τ = 1.75 s — and no overshoot when w changes (a
+        // Butterworth stage's momentum overshot at the start of motion).
+        //
+        // The time constant depends on what moves. Vibration and noise change from one sample
+        // to the next, motion does not: for independent samples the norm's mean square step is
+        // twice their variance along the vertical, i.e. their variance in the two horizontal
+        // axes together if it is the same on every axis. That share of m, v = min(step_var,
+        // m), averages out over `vib_time_constant`, and the shorter the faster the board
+        // turns (`vib_rate`, with |ω| the largest axis rate: the gyro's scale-factor and
+        // misalignment errors grow over the delay in a turn). The rest, m − v, is motion, which
+        // needs `accel_time_constant`. Vibration that does not reach the norm (along the
+        // horizontal only) counts as motion, as it did before the split:
+        //   delay = (τ·(m − v) + τ_v·v·ω₀²/(ω₀² + |ω|²)) / (m + motion_scale),
+        // α = dt / (delay/2 + dt), written with one division.
+        let v = fcmp::min(self.step_var, m);
+        let (w02, tw02) = self.vib_rate2;
+        let g = w02 + rate2;
+        let dmm = dt * (m + e.motion_scale) * g;
+        let num = (e.accel_time_constant * (m - v)) * g + tw02 * v;
+        let alpha = dmm / (mathf::half(num) + dmm);
         self.accel_h1[0] += dev[0] * alpha;
         self.accel_h1[1] += dev[1] * alpha;
         self.accel_h[0] += (self.accel_h1[0] - self.accel_h[0]) * alpha;
@@ -530,7 +584,12 @@ impl AttitudeFilter for Ekf {
         }
 
         if let Some((a, n)) = accel {
-            flags |= self.accel_update(c.dt_rate, a, n, &r);
+            // The largest axis rate, squared: the scale of what the gyro's errors can build up.
+            let rate2 = rate.map_or(0.0, |w| {
+                let r = fcmp::max_abs3(w.x, w.y, w.z);
+                r * r
+            });
+            flags |= self.accel_update(c.dt_rate, a, n, &r, rate2);
         }
         if self.settings.mag.enabled {
             if let Some(m) = sample.mag {
@@ -547,6 +606,10 @@ impl AttitudeFilter for Ekf {
 
     fn attitude(&self) -> Quaternion {
         self.q
+    }
+
+    fn euler(&self) -> Euler {
+        Euler::from_unit_quaternion(self.q)
     }
 
     fn gyro_bias(&self) -> Vec3 {
@@ -616,7 +679,7 @@ mod tests {
             let a = a * (1.0 / a.norm());
             let r = f.q.to_rotation_matrix();
             let before = f.q;
-            let flags = f.accel_update(0.02, a, 1.0, &r);
+            let flags = f.accel_update(0.02, a, 1.0, &r, 0.0);
             prop_assert!(flags.contains(Flags::ACCEL_USED), "{:?}", flags);
             let moved = heading_change(before, f.q);
             prop_assert!(moved.abs() < 1e-6, "heading moved {} rad", moved);

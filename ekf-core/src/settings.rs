@@ -264,13 +264,21 @@ pub struct EkfSettings {
     /// Gyro-bias standard deviation after initialisation, rad/s. Default 0.2 °/s. Also the rate
     /// agreement a still initialisation window tolerates (`init.rs`).
     pub initial_bias_sigma: f32,
-    /// Longest delay of the accelerometer's low-pass in the estimate's NED frame, s (two
-    /// first-order stages of half this time constant each): reached in strong motion, where
-    /// motion accelerations average out and gravity stays (VQF's idea, Laidig and Seel 2023);
-    /// still, samples are used as they are. Default 1.5 s: hand-held motion and the simulated
-    /// pendulum against RepoIMU and the realistic tumble (`docs/filter.md`, session 9). 0: raw
-    /// samples always.
+    /// Longest delay of the accelerometer's low-pass in the estimate's NED frame for motion,
+    /// s (two first-order stages of half this time constant each): reached in strong motion,
+    /// where motion accelerations average out and gravity stays (VQF's idea, Laidig and Seel
+    /// 2023); still, samples are used as they are. Default 1.75 s: hand-held motion and the
+    /// simulated pendulum against RepoIMU (`docs/filter.md`, sessions 9 and 10). 0: raw samples
+    /// always.
     pub accel_time_constant: f32,
+    /// Longest delay of the low-pass for vibration, s: the part of the motion level that
+    /// changes from one sample to the next (`docs/filter.md`). Default 1.5 s.
+    pub vib_time_constant: f32,
+    /// Rotation rate at which the vibration's delay is halved, rad/s: the delay falls as
+    /// `1 / (1 + (|ω| / this)²)`, |ω| the largest axis rate, since the gyro's scale-factor and
+    /// misalignment errors (2 % and 1 % on the iNEMO's gyros) grow over it in a turn.
+    /// Default 15 °/s.
+    pub vib_rate: f32,
     /// Motion level at which the motion weight is ½, g² (mean squared deviation of the
     /// specific force from its low-pass): the low-pass runs at half its longest time constant.
     /// Default 1e−3 g² ((0.032 g)², 400× the accelerometer's noise variance).
@@ -289,7 +297,9 @@ impl Default for EkfSettings {
             initial_tilt_sigma: deg(2.0),
             initial_yaw_sigma: deg(5.0),
             initial_bias_sigma: deg(0.2),
-            accel_time_constant: 1.5,
+            accel_time_constant: 1.75,
+            vib_time_constant: 1.5,
+            vib_rate: deg(15.0),
             motion_scale: 1e-3,
             motion_time_constant: 1.0,
         }

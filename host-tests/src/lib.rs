@@ -13,6 +13,7 @@
 
 pub mod accuracy;
 pub mod config;
+pub mod handheld;
 pub mod lenient;
 pub mod output;
 pub mod plot;

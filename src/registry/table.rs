@@ -520,6 +520,27 @@ settings_table! {
         "delay of the accelerometer low-pass in NED (2 stages, strong motion); 0: raw samples",
         |s| s.filter.ekf.accel_time_constant
     ),
+    // The ekf section's tens (60–69) are full: its later settings take the free ids below.
+    num!(
+        58,
+        "ekf.vib_time_constant",
+        "s",
+        1.0,
+        0.0,
+        60.0,
+        "delay of the low-pass for vibration (the norm's sample-to-sample change)",
+        |s| s.filter.ekf.vib_time_constant
+    ),
+    num!(
+        59,
+        "ekf.vib_rate",
+        "deg/s",
+        DEG,
+        0.01,
+        10000.0,
+        "largest axis rate at which the vibration's delay is halved",
+        |s| s.filter.ekf.vib_rate
+    ),
     num!(
         68,
         "ekf.motion_scale",
