@@ -710,24 +710,7 @@ mod tests {
     #[test]
     fn fit_errors_say_what_went_wrong() {
         // `ahrs-tool calibrate` prints these after "fit failed: ".
-        // No `alloc` here: the text goes into a fixed buffer.
-        struct Buf {
-            bytes: [u8; 128],
-            len: usize,
-        }
-        impl fmt::Write for Buf {
-            fn write_str(&mut self, s: &str) -> fmt::Result {
-                let end = self.len + s.len();
-                self.bytes.get_mut(self.len..end).ok_or(fmt::Error)?.copy_from_slice(s.as_bytes());
-                self.len = end;
-                Ok(())
-            }
-        }
-        let says = |e: FitError, want: &str| {
-            let mut b = Buf { bytes: [0; 128], len: 0 };
-            fmt::write(&mut b, format_args!("{e}")).unwrap();
-            assert_eq!(core::str::from_utf8(&b.bytes[..b.len]), Ok(want));
-        };
+        let says = crate::test_text::assert_displays::<FitError>;
         says(FitError::TooFewSamples { count: 5 }, "accelerometer fit: only 5 samples");
         let mut seen = [true; 6];
         seen[Position::ZUp.index()] = false;
