@@ -489,8 +489,8 @@ mod tests {
             let xf = AccelCalibration::INEMO_BOARD.x.map(|r| r.map(f64::from));
             let indep = model_f64(&xf, raw.map(f64::from));
             for j in 0..3 {
-                // The published X brings every mean to within 6.4 mg of its reference (hand
-                // computation: the largest is YUp's z, 0.0063 g).
+                // The published X brings every mean to within 6.4 mg of its reference (by hand:
+                // the largest is YUp's z, 0.0063 g).
                 assert!((out[j] - reference[j]).abs() < 0.01, "{pos:?} axis {j}: {out:?}");
                 assert!((f64::from(out[j]) - indep[j]).abs() < 1e-6);
             }
@@ -501,6 +501,14 @@ mod tests {
         assert!((out.x - 0.999_397_9).abs() < 1e-6, "{out:?}");
         // And its z: 1.040·(−0.0131) + 0.001·(−0.0157) + 0.058·0.9609 − 0.0474 = −0.0053075.
         assert!((out.z - (-0.005_307_5)).abs() < 1e-6, "{out:?}");
+        // +z up, every axis (each negative entry of the published X is in one of these five
+        // values):
+        // x: −0.003·0.9639 + 0.007·0.0359 + 1.088·0.0070 − 0.0035 = 0.0014756;
+        // y: −0.003·0.0018 + 0.007·0.9914 + 1.088·(−0.0038) − 0.0036 = −0.0008000;
+        // z: −0.003·(−0.0131) + 0.007·(−0.0157) + 1.088·0.9609 − 0.0474 = 0.9979886.
+        let out = AccelCalibration::INEMO_BOARD.apply_g(Vec3::new(-0.003, 0.007, 1.088));
+        let want = Vec3::new(0.001_475_6, -0.000_800_0, 0.997_988_6);
+        assert!((out - want).max_abs() < 1e-6, "{out:?}");
     }
 
     #[test]
