@@ -290,6 +290,23 @@ mod tests {
         }
     }
 
+    #[test]
+    fn errors_name_the_axis_and_the_value() {
+        let says = crate::test_text::assert_displays::<AxisMapError>;
+        says(
+            AxisMap::new([0, 3, 1], [1, 1, 1]).unwrap_err(),
+            "axis map: source 3 of body axis 1 is not a raw axis 0..=2",
+        );
+        says(
+            AxisMap::new([0, 2, 2], [1, 1, 1]).unwrap_err(),
+            "axis map: raw axis 2 is used more than once",
+        );
+        says(
+            AxisMap::new([0, 1, 2], [1, 1, 0]).unwrap_err(),
+            "axis map: sign 0 of body axis 2 is not +1 or -1",
+        );
+    }
+
     /// The branch-free `apply` against the definition `sign[i] · raw[source[i]]` written the
     /// plain way, bit for bit: zeros of both signs, a subnormal, infinities and NaN payloads.
     #[test]

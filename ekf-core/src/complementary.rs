@@ -143,6 +143,71 @@ mod tests {
         }
     }
 
+    /// One correction of a level, still board believed rolled by `roll0` (yaw 0, no rate): the
+    /// roll left after one sample of `dt` s.
+    fn roll_after_one_sample(p: ComplementaryParams, roll0: f32, dt: f32) -> f32 {
+        let mut f = Complementary::new(Settings::default(), p);
+        f.set_attitude(Euler::new(roll0, 0.0, 0.0).to_quaternion(), Vec3::ZERO);
+        let flags = f.update(&ImuSample::new(dt, Vec3::ZERO, Vec3::new(0.0, 0.0, -9.81)));
+        assert!(flags.contains(Flags::ACCEL_USED));
+        let e = f.euler();
+        assert!(e.pitch.abs() < 1e-6 && e.yaw.abs() < 1e-6, "{e:?}");
+        e.roll
+    }
+
+    /// The correction is about north, by a fraction α = gain · dt · gain_rate_hz of the tilt
+    /// error: SLERP turns by exactly α·θ; LERP (normalised) by φ with
+    /// tan(φ/2) = α sin(θ/2) / (1 − α + α cos(θ/2)), a little less.
+    #[test]
+    fn the_gain_scales_with_dt_and_large_corrections_use_slerp() {
+        let p = ComplementaryParams { gain: 0.5, ..Default::default() };
+        // 30° (beyond the default 20°: SLERP), α = 0.5 · 0.01 · 50 = 0.25: 30° − 7.5°.
+        let r = roll_after_one_sample(p, deg(30.0), 0.01);
+        assert!((r - deg(22.5)).abs() < 2e-5, "{}", mathf::to_deg(r));
+        // At 0.02 s, α = 0.5: 15° left.
+        let r = roll_after_one_sample(p, deg(30.0), 0.02);
+        assert!((r - deg(15.0)).abs() < 2e-5, "{}", mathf::to_deg(r));
+        // The same 30° with LERP up to 90°: tan(φ/2) = 0.25·sin 15° / (0.75 + 0.25·cos 15°)
+        // = 0.0652607, φ = 7.4677°: 22.5323° left (SLERP would leave 22.5°).
+        let lerp = ComplementaryParams { lerp_below: deg(90.0), ..p };
+        let r = roll_after_one_sample(lerp, deg(30.0), 0.01);
+        assert!((r - deg(22.5323)).abs() < 2e-5, "{}", mathf::to_deg(r));
+        // 60° with LERP up to 90°: tan(φ/2) = 0.25·sin 30° / (0.75 + 0.25·cos 30°) = 0.1293318,
+        // φ = 14.7385°: 45.2615° left (SLERP: 45°).
+        let r = roll_after_one_sample(lerp, deg(60.0), 0.01);
+        assert!((r - deg(45.2615)).abs() < 2e-5, "{}", mathf::to_deg(r));
+        // Beyond 90° SLERP again: 100° − 25°.
+        let r = roll_after_one_sample(lerp, deg(100.0), 0.01);
+        assert!((r - deg(75.0)).abs() < 2e-5, "{}", mathf::to_deg(r));
+    }
+
+    /// The trait's other methods reach the gyro part: the window, the bias it measures,
+    /// `set_yaw`, `reset`, the name.
+    #[test]
+    fn window_bias_yaw_and_reset() {
+        let mut f = Complementary::new(Settings::default(), ComplementaryParams::default());
+        assert_eq!(f.name(), "cf");
+        assert!(!f.is_initialised());
+        let b = Vec3::new(0.002, -0.001, 0.0005);
+        let level = Vec3::new(0.0, 0.0, -crate::GRAVITY);
+        let mut n = 0;
+        while !f.is_initialised() && n < 5000 {
+            f.update(&ImuSample::new(0.02, b, level));
+            n += 1;
+        }
+        // The default window is 10 s: 500 samples of 0.02 s.
+        assert!(f.is_initialised() && (499..=501).contains(&n), "{n}");
+        assert!((f.gyro_bias() - b).norm() < 1e-6, "{:?}", f.gyro_bias());
+        f.set_attitude(Euler::new(deg(10.0), deg(-20.0), deg(30.0)).to_quaternion(), b);
+        f.set_yaw(deg(-45.0));
+        let e = f.euler();
+        assert!((e.yaw - deg(-45.0)).abs() < 1e-5, "{e:?}");
+        assert!((e.roll - deg(10.0)).abs() < 1e-5 && (e.pitch - deg(-20.0)).abs() < 1e-5);
+        f.reset();
+        assert!(!f.is_initialised());
+        assert_eq!(f.gyro_bias(), Settings::default().init.gyro_bias);
+    }
+
     #[test]
     fn gain_one_snaps_tilt_and_keeps_heading_direction() {
         let p = ComplementaryParams { gain: 1.0, ..Default::default() };

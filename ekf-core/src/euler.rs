@@ -170,6 +170,13 @@ mod tests {
     }
 
     #[test]
+    fn to_degrees_converts_each_angle_in_order() {
+        use core::f32::consts::PI;
+        let [r, p, y] = Euler::new(PI / 6.0, -PI / 4.0, PI).to_degrees();
+        assert!((r - 30.0).abs() < 1e-5 && (p + 45.0).abs() < 1e-5 && (y - 180.0).abs() < 1e-4);
+    }
+
+    #[test]
     fn yaw_of_matches_full_conversion() {
         let q = Euler::new(deg(12.0), deg(-33.0), deg(140.0)).to_quaternion();
         assert!((Euler::yaw_of(q) - deg(140.0)).abs() < 1e-5);

@@ -55,6 +55,8 @@ pub mod settings;
 pub mod ssukf;
 #[cfg(test)]
 mod test_rng;
+#[cfg(test)]
+mod test_text;
 pub mod ukf;
 mod unscented;
 pub mod validate;

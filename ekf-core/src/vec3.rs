@@ -145,4 +145,19 @@ mod tests {
         assert_eq!(y.cross(x), Vec3::new(0.0, 0.0, -1.0));
         assert_eq!(Vec3::new(1.0, 2.0, 3.0).dot(Vec3::new(4.0, -5.0, 6.0)), 12.0);
     }
+
+    /// The component-wise operators by hand (small integers and halves: exact in `f32`).
+    #[test]
+    fn component_wise_operators_by_hand() {
+        let a = Vec3::new(1.5, -2.0, 4.0);
+        let b = Vec3::new(2.0, 3.0, -0.5);
+        assert_eq!(a.mul_elem(b), Vec3::new(3.0, -6.0, -2.0));
+        assert_eq!(-a, Vec3::new(-1.5, 2.0, -4.0));
+        let mut c = a;
+        c -= b;
+        assert_eq!(c, Vec3::new(-0.5, -5.0, 4.5));
+        c += b;
+        assert_eq!(c, a);
+        assert_eq!([a[0], a[1], a[2], a[3]], [1.5, -2.0, 4.0, 4.0]);
+    }
 }
