@@ -87,7 +87,7 @@ pub struct Ekf {
     /// `motion_time_constant`): for vibration and noise, whose samples are independent, twice
     /// their variance along one axis, i.e. their variance in the two horizontal axes together.
     step_var: f32,
-    /// `vib_rate²`, (rad/s)², and `vib_time_constant · vib_rate²`, s/s².
+    /// `vib_rate²`, (rad/s)², and `vib_time_constant · vib_rate²`, (rad/s)²·s.
     vib_rate2: (f32, f32),
     /// The previous sample's bias-corrected rate, rad/s (`None` when it was invalid).
     prev_rate: Option<Vec3>,
@@ -647,6 +647,7 @@ impl AttitudeFilter for Ekf {
 mod tests {
     use super::*;
     use crate::mathf::deg;
+    use crate::settings::GateSettings;
     use proptest::prelude::*;
 
     proptest! {
@@ -686,6 +687,208 @@ mod tests {
             // ... and the tilt did move toward the measurement (the update did something).
             prop_assert!(f.q.normalized().angle_to(before) > 0.0);
         }
+    }
+
+    /// A started filter at the identity with a covariance so small that the Kalman correction
+    /// (which also turns the low-pass's stages) is negligible: the stages then show the
+    /// low-pass's own weight α.
+    fn quiet_filter(settings: Settings) -> Ekf {
+        let mut f = Ekf::new(settings);
+        f.set_attitude(Quaternion::IDENTITY, Vec3::ZERO);
+        f.p = Cov6::diagonal([1e-14; 6]);
+        f
+    }
+
+    const IDENTITY: Mat3 = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+
+    /// The low-pass's weight against the documented formula, computed here in `f64` with its
+    /// division (the filter multiplies it out): α = dt / (D/2 + dt),
+    /// D = (τ·(m − v) + τ_v·v·ω₀²/(ω₀² + |ω|²)) / (m + m₀), for motion and vibration mixed,
+    /// vibration alone, a fast turn and no turn. The sample is chosen so that this sample's
+    /// deviation and step equal the current level and step mean square (m and `step_var` stay
+    /// as set), north so that the first stage moves by α times the deviation.
+    #[test]
+    fn the_low_pass_delay_follows_its_formula() {
+        let s = Settings::default();
+        let (tau, tau_v, w0, m0) = (
+            f64::from(s.ekf.accel_time_constant),
+            f64::from(s.ekf.vib_time_constant),
+            f64::from(s.ekf.vib_rate),
+            f64::from(s.ekf.motion_scale),
+        );
+        assert_eq!((tau, tau_v, m0 as f32), (1.75, 1.5, 1e-3));
+        let dt = 0.02f32;
+        for (m, step2, rate) in [
+            (4e-3f32, 1e-3f32, 0.0f32),
+            (4e-3, 1e-3, deg(30.0)),
+            (2e-3, 5e-3, deg(5.0)),
+            (0.05, 0.0, deg(200.0)),
+        ] {
+            let mut f = quiet_filter(s);
+            f.motion_var = m;
+            f.step_var = step2;
+            f.norm_prev = -step2.sqrt(); // this sample's norm is 1 g: its step is √step_var
+            let north = m.sqrt(); // this sample's deviation from the first stage (at 0)
+            let a = Vec3::new(north, 0.0, -(1.0 - m).sqrt());
+            let flags = f.accel_update(dt, a, 1.0, &IDENTITY, rate * rate);
+            assert!(flags.contains(Flags::ACCEL_USED), "{flags:?}");
+            let alpha = f64::from(f.accel_h1[0]) / f64::from(north);
+            let (m, v, w2) = (f64::from(m), f64::from(step2.min(m)), f64::from(rate).powi(2));
+            let delay = (tau * (m - v) + tau_v * v * w0 * w0 / (w0 * w0 + w2)) / (m + m0);
+            let want = 0.02 / (delay / 2.0 + 0.02);
+            assert!((alpha / want - 1.0).abs() < 1e-4, "m {m} v {v}: α {alpha}, by hand {want}");
+        }
+    }
+
+    /// The vibration share is the norm's sample-to-sample scatter: for independent samples of
+    /// standard deviation σ the mean square step is 2σ² (here σ = 0.02 g on the norm: 8·10⁻⁴
+    /// g²); for a slow vertical bob (0.2 g at 0.5 Hz, 50 Hz samples) it is (0.2·2π·0.5·0.02)²/2
+    /// = 7.9·10⁻⁵ g², while its motion level is about 0.2²/2 = 0.02 g².
+    #[test]
+    fn the_vibration_share_is_the_norms_sample_to_sample_scatter() {
+        let mut rng = 0x2545_f491_4f6c_dd1du64;
+        let mut gauss = || {
+            // Irwin–Hall: the sum of 12 uniforms minus 6, unit variance.
+            let mut sum = 0.0f32;
+            for _ in 0..12 {
+                rng ^= rng << 13;
+                rng ^= rng >> 7;
+                rng ^= rng << 17;
+                sum += (rng >> 40) as f32 / (1u64 << 24) as f32;
+            }
+            sum - 6.0
+        };
+        let mut f = quiet_filter(Settings::default());
+        for _ in 0..1500 {
+            let n = 1.0 + 0.02 * gauss();
+            f.accel_update(0.02, Vec3::new(0.0, 0.0, -n), n, &IDENTITY, 0.0);
+        }
+        assert!((f.step_var / 8e-4 - 1.0).abs() < 0.25, "noise: {}", f.step_var);
+
+        let mut f = quiet_filter(Settings::default());
+        for k in 0..1500 {
+            let t = k as f32 * 0.02;
+            let n = 1.0 + 0.2 * (core::f32::consts::TAU * 0.5 * t).sin();
+            f.accel_update(0.02, Vec3::new(0.0, 0.0, -n), n, &IDENTITY, 0.0);
+        }
+        assert!((f.step_var / 7.9e-5 - 1.0).abs() < 0.1, "bob: {}", f.step_var);
+        assert!((f.motion_var / 0.02 - 1.0).abs() < 0.1, "bob's level: {}", f.motion_var);
+    }
+
+    /// The motion level averages over `motion_time_constant` with weight β = dt/τ per sample,
+    /// and ten times that (`ONSET_SPEEDUP`) for a deviation beyond 3 standard deviations of
+    /// the level: the filter's level after a step of the norm to 1.1 g (a deviation of 0.01
+    /// g², nothing horizontal) against that recurrence, at τ = 0.25 s (β = 0.08).
+    #[test]
+    fn the_motion_level_averages_over_its_time_constant_faster_at_onset() {
+        let mut s = Settings::default();
+        s.ekf.motion_time_constant = 0.25;
+        let mut f = quiet_filter(s);
+        let mut m = 0.0f64;
+        for k in 0..40 {
+            f.accel_update(0.02, Vec3::new(0.0, 0.0, -1.1), 1.1, &IDENTITY, 0.0);
+            let dev2 = 0.1f64 * 0.1;
+            let beta = if dev2 > 9.0 * m { 0.8 } else { 0.08 };
+            m += beta * (dev2 - m);
+            let got = f64::from(f.motion_var);
+            assert!((got / m - 1.0).abs() < 1e-4, "sample {k}: level {got}, by hand {m}");
+        }
+    }
+
+    /// In motion the bias learns as if the measurement's variance were the samples' scatter:
+    /// its gain is scaled by β = (P₀₀ + σ²)/(P₀₀ + m/3) (docs/filter.md, step 4). With the
+    /// low-pass off (α = 1: the measurement is this sample's horizontal specific force) and the
+    /// tilt x error correlated with the x bias only (P₀₃ = c), one sample east e (a tilt x
+    /// measurement of −e) moves the x bias by −β·c·e/(P₀₀ + σ²) = −c·e/(P₀₀ + m/3) (the first scalar update; the second, in
+    /// y, does not reach it), against −c·e/(P₀₀ + σ²) still.
+    #[test]
+    fn in_motion_the_bias_learns_with_the_samples_scatter_as_variance() {
+        let mut s = Settings::default();
+        s.ekf.accel_time_constant = 0.0;
+        s.ekf.vib_time_constant = 0.0;
+        let var = s.noise.accel_var * s.ekf.accel_var_scale;
+        let (p0, c) = (1e-2f32, 1e-4f32);
+        for m in [1e-3f32, 0.0] {
+            let mut f = Ekf::new(s);
+            f.set_attitude(Quaternion::IDENTITY, Vec3::ZERO);
+            let mut p = Cov6::diagonal([p0, p0, 1e-2, 1e-4, 1e-4, 1e-4]);
+            p.m[0][3] = c;
+            p.m[3][0] = c;
+            f.p = p;
+            f.motion_var = m;
+            // This sample's deviation equals the level, so the level stays m.
+            let e = if m > 0.0 { m.sqrt() } else { 1e-3 };
+            let a = Vec3::new(0.0, e, -(1.0 - e * e).sqrt());
+            let flags = f.accel_update(0.02, a, 1.0, &IDENTITY, 0.0);
+            assert!(flags.contains(Flags::ACCEL_USED), "{flags:?}");
+            let den = if m > 3.0 * var { p0 + m / 3.0 } else { p0 + var };
+            let want = -c * e / den;
+            let got = f.bias.x;
+            assert!((got / want - 1.0).abs() < 1e-3, "m {m}: bias moved {got}, by hand {want}");
+        }
+    }
+
+    /// Robust bias learning and the reacquisition after a lock-out, by hand. The source's gate
+    /// (χ² 16; no hold-off here) rejects a sample 0.1 g north and 0.05 g east of a level
+    /// estimate while its tilt variance is 10⁻⁶ rad² (NIS ≈ 3,700) — for 2 s, then takes it
+    /// (`REACQUIRE`): the tilt variances are widened by |z|² = 0.0125 rad², and the bias learns
+    /// from that sample as from any other, with β = (P₀₀ + σ²)/(P₀₀ + m/3) for the motion
+    /// level's scatter times c/NIS (c = 2) for the outlier, taken before the widening. With the
+    /// low-pass off the measurement is the sample itself, z = (−0.05, 0.1), and the motion level
+    /// (started at 0.01 g²) decays by 1 − dt/τ per sample once the first stage holds the sample.
+    #[test]
+    fn a_reacquired_sample_widens_the_tilt_variance_and_teaches_the_bias_robustly() {
+        let mut s = Settings::default();
+        s.ekf.accel_time_constant = 0.0;
+        s.ekf.vib_time_constant = 0.0;
+        s.gate = GateSettings { holdoff_s: 0.0, ..GateSettings::SOURCE };
+        let var = f64::from(s.noise.accel_var * s.ekf.accel_var_scale);
+        let mut f = Ekf::new(s);
+        f.set_attitude(Quaternion::IDENTITY, Vec3::ZERO);
+        let (p0, c) = (1e-6f32, 5e-6f32);
+        let mut p = Cov6::diagonal([p0, p0, 1e-2, 1e-4, 1e-4, 1e-4]);
+        p.m[0][3] = c;
+        p.m[3][0] = c;
+        f.p = p;
+        f.motion_var = 0.01;
+        let (north, east) = (0.1f32, 0.05f32);
+        let a = Vec3::new(north, east, -(1.0 - north * north - east * east).sqrt());
+        let mut m = 0.01f64;
+        let mut dev2 = f64::from(north * north + east * east); // the first stage starts at 0
+        for k in 0..200 {
+            let flags = f.accel_update(0.02, a, 1.0, &IDENTITY, 0.0);
+            m += 0.02 * (dev2 - m);
+            dev2 = 0.0;
+            if !flags.contains(Flags::REACQUIRE) {
+                assert!(flags.contains(Flags::ACCEL_KNOCK), "sample {k}: {flags:?}");
+                assert_eq!(f.p.m[0][0], p0, "a rejected sample changes nothing");
+                continue;
+            }
+            assert!((100..=102).contains(&k), "reacquired at sample {k}");
+            let (p0, c) = (f64::from(p0), f64::from(c));
+            let (z0, z1) = (-f64::from(east), f64::from(north));
+            let e = z0 * z0 + z1 * z1;
+            let nis = (z0 * z0 + z1 * z1) / (p0 + var);
+            let beta = (p0 + var) / (p0 + m / 3.0) * (2.0 / nis);
+            let widened = p0 + e;
+            let want_p = widened * var / (widened + var);
+            let want_b = beta * c * z0 / (widened + var);
+            let (got_p, got_b) = (f64::from(f.p.m[0][0]), f64::from(f.bias.x));
+            // (P₀₀ after the update is a difference of two numbers near 0.0125: f32 leaves it
+            // good to about 10⁻⁴.)
+            assert!((got_p / want_p - 1.0).abs() < 1e-3, "P₀₀ {got_p}, by hand {want_p}");
+            assert!((got_b / want_b - 1.0).abs() < 1e-3, "bias {got_b}, by hand {want_b}");
+            // What is left of the measurement after the correction (the stages turn with it):
+            // z·σ²/(P + |z|² + σ²) on each axis, 1.9·10⁻⁴ of it.
+            let left = var / (widened + var);
+            let got = [f64::from(f.accel_h1[0]), f64::from(f.accel_h1[1])];
+            let want = [f64::from(north) * left, f64::from(east) * left];
+            for (g, w) in got.iter().zip(want) {
+                assert!((g / w - 1.0).abs() < 1e-2, "left {got:?}, by hand {want:?}");
+            }
+            return;
+        }
+        panic!("never reacquired");
     }
 
     #[test]
