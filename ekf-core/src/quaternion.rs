@@ -198,19 +198,24 @@ impl Quaternion {
     }
 
     /// Rotation matrix `R` with `v_ned = R · v_body` (for an attitude quaternion).
-    #[inline]
     pub fn to_rotation_matrix(self) -> Mat3 {
         let Quaternion { w, x, y, z } = self;
-        let mut r = self.to_rotation_matrix_tilt();
-        r[2][0] = mathf::twice(x * z - w * y);
-        r[2][1] = mathf::twice(y * z + w * x);
-        r
+        let (xx, yy, zz) = (x * x, y * y, z * z);
+        let (xy, xz, yz) = (x * y, x * z, y * z);
+        let (wx, wy, wz) = (w * x, w * y, w * z);
+        let two = mathf::twice;
+        [
+            [1.0 - two(yy + zz), two(xy - wz), two(xz + wy)],
+            [two(xy + wz), 1.0 - two(xx + zz), two(yz - wx)],
+            [two(xz - wy), two(yz + wx), 1.0 - two(xx + yy)],
+        ]
     }
 
     /// [`Quaternion::to_rotation_matrix`] without `R[2][0]` and `R[2][1]`, which are left 0:
     /// the two tilt rows and the third column, all that the EKF's propagation without a yaw
     /// row and its accelerometer update read (two additions fewer; the rest bit for bit).
-    #[inline]
+    /// Written out, not built on [`Quaternion::to_rotation_matrix`] or under it: either way
+    /// LLVM's inlining at `opt-level = "s"` added 2.9 KB to the EKF's code (`ekf-min`).
     pub fn to_rotation_matrix_tilt(self) -> Mat3 {
         let Quaternion { w, x, y, z } = self;
         let (xx, yy, zz) = (x * x, y * y, z * z);
