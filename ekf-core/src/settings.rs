@@ -19,9 +19,14 @@ pub struct NoiseSettings {
     pub gyro_var: Vec3,
     /// Sample rate at which `gyro_var` was measured, Hz. Default 50.
     pub gyro_ref_rate_hz: f32,
-    /// Accelerometer white-noise variance per axis and sample, g². Default 2.376e−6
-    /// (LSM303DLH datasheet, as in the source).
+    /// Accelerometer white-noise variance per axis and sample at `accel_ref_rate_hz`, g².
+    /// Default 2.376e−6 (LSM303DLH datasheet, as in the source: 218 µg/√Hz over 50 Hz). As
+    /// for the gyro, the noise density is taken as constant: at another sample rate the
+    /// per-sample variance scales with the rate ([`NoiseSettings::accel_var_per_sample`]).
     pub accel_var: f32,
+    /// Sample rate at which `accel_var` holds, Hz. Default 50 (the board's rate, at which the
+    /// source used the datasheet figure).
+    pub accel_ref_rate_hz: f32,
 }
 
 impl Default for NoiseSettings {
@@ -30,6 +35,7 @@ impl Default for NoiseSettings {
             gyro_var: Vec3::new(0.337 * DEG2, 0.275 * DEG2, 4.19e-3 * DEG2),
             gyro_ref_rate_hz: 50.0,
             accel_var: 2.376e-6,
+            accel_ref_rate_hz: 50.0,
         }
     }
 }
@@ -38,6 +44,13 @@ impl NoiseSettings {
     /// Gyro noise power spectral density per axis, (rad/s)²/Hz = rad²/s.
     pub fn gyro_psd(&self) -> Vec3 {
         self.gyro_var * (1.0 / self.gyro_ref_rate_hz.max(1e-3))
+    }
+
+    /// Accelerometer white-noise variance of one sample `dt` seconds long, per axis, g²:
+    /// `accel_var · (1/dt) / accel_ref_rate_hz` (constant noise density). Exactly `accel_var`
+    /// at the reference rate.
+    pub fn accel_var_per_sample(&self, dt: f32) -> f32 {
+        self.accel_var / (dt * self.accel_ref_rate_hz).max(1e-6)
     }
 }
 

@@ -148,7 +148,8 @@ impl SsUkfParams {
 ///   `Q = blockdiag(ψ̄·dt/4·I₄, bias_random_walk·dt·I₃)` with `ψ̄` the mean gyro noise density
 ///   (rad²/s) and `dt` the sample interval, s.
 /// - Measurement: unit "down" in the body frame, `down_in_body(q)` per sigma point, against
-///   `−a/|a|`; `R = accel_var·accel_var_scale·I₃` (g²).
+///   `−a/|a|`; `R = accel_var·accel_var_scale·I₃` (g², `accel_var` per sample at
+///   `noise.accel_ref_rate`, scaled to the sample rate).
 /// - Means and covariances in deviation form around the central point; `P` symmetrised after
 ///   every step; a failing Cholesky factorisation is repaired (diagonal jitter, else reset to
 ///   the initial covariance) and reported as [`Flags::HEALTH_RESET`].

@@ -8,7 +8,8 @@
 //! seed-1 trace is written there too (for `scripts/vqf-reference --trace FILE`). With
 //! `HANDHELD_MOVING_START=1` the motion starts at power-on (no still start) and the simulated
 //! gyro has no bias, so the configured bias the EKF starts from (the iNEMO board's, up to
-//! 3.4 °/s) is wrong and only learning in motion can correct it.
+//! 3.4 °/s) is wrong and only learning in motion can correct it. With `HANDHELD_RATE=HZ` the
+//! trace is sampled at HZ instead of 100 Hz (the sensors' noise densities held).
 use host_tests::config::ReplayConfig;
 use host_tests::handheld;
 use host_tests::real::score;
@@ -23,6 +24,14 @@ fn run() -> Result<(), String> {
         _ => (1.0, &args[..]),
     };
     let moving_start = std::env::var("HANDHELD_MOVING_START").is_ok_and(|v| v == "1");
+    let rate_hz = match std::env::var("HANDHELD_RATE") {
+        Ok(v) => v
+            .parse::<f64>()
+            .ok()
+            .filter(|r| r.is_finite() && *r >= 1.0)
+            .ok_or(format!("HANDHELD_RATE={v}: not a sample rate in Hz (>= 1)"))?,
+        Err(_) => handheld::RATE_HZ,
+    };
     let mut base = ReplayConfig::default();
     base.conditioning.lever_arm = ekf_core::lever_arm::LeverArm::NONE;
     let mut rs = ReplaySettings::new(device_form(&base));
@@ -35,12 +44,12 @@ fn run() -> Result<(), String> {
     } else {
         "10 s still start"
     };
-    println!("hand-held motion, accelerations x{scale}, {start}, 100 Hz, 120 s, seeds 1-3");
+    println!("hand-held motion, accelerations x{scale}, {start}, {rate_hz} Hz, 120 s, seeds 1-3");
     for realistic in [false, true] {
         let filters = [FilterKind::Ekf, FilterKind::Gyro, FilterKind::Cf];
         let mut sums = [(0.0, 0.0); 3];
         for seed in 1..=3u64 {
-            let rows = handheld::rows(scale, seed, realistic, moving_start);
+            let rows = handheld::rows(scale, seed, realistic, moving_start, rate_hz);
             if let (Ok(path), 1, false) = (std::env::var("HANDHELD_TRACE"), seed, realistic) {
                 let file = std::fs::File::create(&path).map_err(|e| format!("{path}: {e}"))?;
                 let cols = TraceColumns { mag: false, depth: false, truth: true };

@@ -1,7 +1,7 @@
 //! Every figure the EKF's NED low-pass trades against each other (issue #13, sessions 9–10), in
 //! one run, for settings given in the device's language: the mean inclination and heading RMSE
 //! on the 6 RepoIMU recordings (`--example repoimu`), the hand-held case at 0.5 g and 0.15 g
-//! (`--example handheld`, seeds 1–3), and the robustness scenarios' tilt RMSE and the goal rows
+//! (`--example handheld`, seeds 1–3; 100 Hz, and 250 Hz at 0.5 g), and the robustness scenarios' tilt RMSE and the goal rows
 //! of the accuracy bench (seeds 1–5), plain and realistic sensors. Lower is better everywhere:
 //! a change of the estimator is done when no row gets worse.
 //!
@@ -41,16 +41,20 @@ fn run() -> Result<(), String> {
     let mut base = ReplayConfig::default();
     base.conditioning.lever_arm = ekf_core::lever_arm::LeverArm::NONE;
     let cfg = with(&base, &given);
-    for (scale, moving) in [(1.0, false), (0.3, false), (1.0, true)] {
+    let r0 = handheld::RATE_HZ;
+    for (scale, moving, rate) in
+        [(1.0, false, r0), (0.3, false, r0), (1.0, true, r0), (1.0, false, 250.0)]
+    {
         let mut v = [0.0; 2];
         for (k, realistic) in [false, true].into_iter().enumerate() {
             for seed in 1..=3u64 {
-                let rows = handheld::rows(scale, seed, realistic, moving);
+                let rows = handheld::rows(scale, seed, realistic, moving, rate);
                 v[k] += score(&rows, ekf, &cfg).ok_or("no truth")?.inclination_deg / 3.0;
             }
         }
         let start = if moving { ", moving start" } else { "" };
-        println!("{:34} {:7.3} {:7.3}", format!("hand-held x{scale}{start}"), v[0], v[1]);
+        let hz = if rate == r0 { String::new() } else { format!(", {rate} Hz") };
+        println!("{:34} {:7.3} {:7.3}", format!("hand-held x{scale}{start}{hz}"), v[0], v[1]);
     }
 
     let goals = ROBUST_GOALS.iter().chain(GOALS.iter().take(10));

@@ -2,7 +2,7 @@
 //! `examples/handheld.rs` prints its figures): three sines per body axis at 0.2–2.7 Hz (rates up
 //! to about 250 °/s) and, at the rotation centre, linear accelerations of up to 0.5 g at
 //! 0.6–2.4 Hz, sines in NED (so that the position stays bounded, as a hand's does; session 9),
-//! after a 10 s still start, or from power-on; 100 Hz, 120 s, no lever arm.
+//! after a 10 s still start, or from power-on; 100 Hz (or another rate), 120 s, no lever arm.
 use crate::sim::{Attitude, Profile, Realism, SensorModel, SimConfig, Simulator, Trajectory};
 use crate::trace::TraceRow;
 
@@ -39,11 +39,21 @@ pub fn trajectory(accel_scale: f64, start_s: f64) -> Trajectory {
     }
 }
 
-/// The simulated trace, 100 Hz, 120 s, no lever arm: plain sensors, or `realistic` ones
+/// The usual sample rate of the case, Hz.
+pub const RATE_HZ: f64 = 100.0;
+
+/// The simulated trace at `rate_hz` (the noise densities held, as everywhere in the simulator),
+/// 120 s, no lever arm: plain sensors, or `realistic` ones
 /// (`simulate --realistic`'s errors, full scales widened to ±2000 °/s and ±8 g). With
 /// `moving_start` the motion starts at power-on and the simulated gyro has no bias, so the
 /// configured bias a filter starts from (the iNEMO board's, up to 3.4 °/s) is wrong.
-pub fn rows(accel_scale: f64, seed: u64, realistic: bool, moving_start: bool) -> Vec<TraceRow> {
+pub fn rows(
+    accel_scale: f64,
+    seed: u64,
+    realistic: bool,
+    moving_start: bool,
+    rate_hz: f64,
+) -> Vec<TraceRow> {
     let mut sensors = SensorModel { lever_arm: [0.0; 3], ..SensorModel::default() };
     if moving_start {
         sensors.gyro_bias = [0.0; 3];
@@ -55,7 +65,7 @@ pub fn rows(accel_scale: f64, seed: u64, realistic: bool, moving_start: bool) ->
             ..Realism::INEMO
         });
     }
-    let sim = SimConfig { rate_hz: 100.0, duration_s: 120.0, seed, sensors };
+    let sim = SimConfig { rate_hz, duration_s: 120.0, seed, sensors };
     let traj = trajectory(accel_scale, if moving_start { 0.0 } else { 10.0 });
     Simulator::new(traj, sim).map(|s| s.row).collect()
 }

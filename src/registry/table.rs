@@ -182,8 +182,18 @@ settings_table! {
         1.0,
         1e-12,
         1.0,
-        "accelerometer white-noise variance per axis and sample",
+        "accelerometer white-noise variance per axis and sample at `noise.accel_ref_rate`",
         |s| s.filter.noise.accel_var
+    ),
+    num!(
+        4,
+        "noise.accel_ref_rate",
+        "Hz",
+        1.0,
+        1.0,
+        1000.0,
+        "sample rate at which `noise.accel_var` holds (constant density: the per-sample variance scales with the rate)",
+        |s| s.filter.noise.accel_ref_rate_hz
     ),
     // Initialisation window.
     num!(

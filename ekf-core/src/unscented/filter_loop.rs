@@ -215,7 +215,8 @@ impl<T: Real, const M: usize> Core<T, M> {
         let d = a_g * (-1.0 / norm_g);
         let meas = SVector::<T, 3>::new(T::of(d.x), T::of(d.y), T::of(d.z));
         // Floored (also against NaN) so that S stays invertible with a zero noise setting.
-        let r = T::of((self.settings.noise.accel_var * self.tuning.accel_var_scale).max(1e-12));
+        let var = self.settings.noise.accel_var_per_sample(dt) * self.tuning.accel_var_scale;
+        let r = T::of(var.max(1e-12));
         let (inn, mut flags) = self.innovation(&meas, r);
         let Some(mut inn) = inn else { return flags };
         match self.gate.innovation(dt, inn.nis.to_f32(), bypass) {

@@ -21,8 +21,8 @@
 //!   (`Checked::dt_cov`); the state moves over `Checked::dt_rate`.
 //! - Measurement: the unit "down" vector in the body frame, `y = down_in_body(q)` evaluated on
 //!   every (not normalised) sigma point; measured `−a/|a|` (accelerometer in g). `R = σ²_a ·
-//!   accel_var_scale · I₃` with `σ²_a` = [`crate::settings::NoiseSettings::accel_var`] (g², and
-//!   the unit vector is in g units).
+//!   accel_var_scale · I₃` with `σ²_a` = [`crate::settings::NoiseSettings::accel_var_per_sample`]
+//!   (g², and the unit vector is in g units: `noise.accel_var` scaled to the sample rate).
 //! - Sigma points are redrawn from `(x̄, P̄)` for the measurement update (so that `Q` is seen
 //!   by the cross-covariance). `K = P_xy S⁻¹`, `x ← x̄ + K ν`, `P ← P̄ − K S Kᵀ`, then
 //!   symmetrised, the quaternion part of `x` normalised, and `P` carried to the new mean
