@@ -5,7 +5,8 @@
 //! of the accuracy bench (seeds 1–5), plain and realistic sensors. Lower is better everywhere:
 //! a change of the estimator is done when no row gets worse.
 //!
-//! `cargo run --release -p host-tests --example tradeoff -- [NAME=VALUE...]`
+//! `cargo run --release -p host-tests --example tradeoff -- [NAME=VALUE...]`; with
+//! `TRADEOFF_RATE=HZ` the robustness and goal rows are simulated at HZ instead of 50 Hz.
 use host_tests::accuracy::{evaluate_from, Metric, GOALS, ROBUST_GOALS};
 use host_tests::accuracy::{replay_config, simulate_with, tilt_start_s, RATE_HZ};
 use host_tests::config::ReplayConfig;
@@ -57,13 +58,21 @@ fn run() -> Result<(), String> {
         println!("{:34} {:7.3} {:7.3}", format!("hand-held x{scale}{start}{hz}"), v[0], v[1]);
     }
 
+    // The simulated rows at another rate (`TRADEOFF_RATE=HZ`; the goals are set for 50 Hz).
+    let rate_hz = match std::env::var("TRADEOFF_RATE") {
+        Ok(v) => v
+            .parse::<f64>()
+            .ok()
+            .filter(|r| r.is_finite() && *r >= 1.0)
+            .ok_or(format!("TRADEOFF_RATE={v}: not a sample rate in Hz (>= 1)"))?,
+        Err(_) => RATE_HZ,
+    };
     let goals = ROBUST_GOALS.iter().chain(GOALS.iter().take(10));
     for g in goals {
         let mut v = [0.0; 2];
         for (k, realistic) in [false, true].into_iter().enumerate() {
             for seed in 1..=5u64 {
-                let opts =
-                    SimOptions { rate_hz: RATE_HZ, seed, realistic, ..SimOptions::default() };
+                let opts = SimOptions { rate_hz, seed, realistic, ..SimOptions::default() };
                 let rows = simulate_with(g.scenario, &opts);
                 let cfg = with(&replay_config(g.scenario), &given);
                 let r = evaluate_from(&rows, ekf, &cfg, tilt_start_s(g.scenario, &cfg));
