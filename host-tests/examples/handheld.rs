@@ -5,7 +5,8 @@
 //! `cargo run --release -p host-tests --example handheld -- [ACCEL_SCALE] [NAME=VALUE...]`:
 //! the linear accelerations scaled by ACCEL_SCALE (default 1, up to 0.5 g; 0.3 for about
 //! 0.15 g), the EKF's settings in the device's language. With `HANDHELD_TRACE=FILE` the plain
-//! seed-1 trace is written there too (for `scripts/vqf-reference --trace FILE`). With
+//! seed-1 trace is written there too (for `scripts/vqf-reference --trace FILE`; the realistic
+//! one with `HANDHELD_TRACE_REALISTIC=1`). With
 //! `HANDHELD_MOVING_START=1` the motion starts at power-on (no still start) and the simulated
 //! gyro has no bias, so the configured bias the EKF starts from (the iNEMO board's, up to
 //! 3.4 °/s) is wrong and only learning in motion can correct it. With `HANDHELD_RATE=HZ` the
@@ -24,6 +25,7 @@ fn run() -> Result<(), String> {
         _ => (1.0, &args[..]),
     };
     let moving_start = std::env::var("HANDHELD_MOVING_START").is_ok_and(|v| v == "1");
+    let trace_realistic = std::env::var("HANDHELD_TRACE_REALISTIC").is_ok_and(|v| v == "1");
     let rate_hz = match std::env::var("HANDHELD_RATE") {
         Ok(v) => v
             .parse::<f64>()
@@ -50,7 +52,9 @@ fn run() -> Result<(), String> {
         let mut sums = [(0.0, 0.0); 3];
         for seed in 1..=3u64 {
             let rows = handheld::rows(scale, seed, realistic, moving_start, rate_hz);
-            if let (Ok(path), 1, false) = (std::env::var("HANDHELD_TRACE"), seed, realistic) {
+            if let (Ok(path), 1, true) =
+                (std::env::var("HANDHELD_TRACE"), seed, realistic == trace_realistic)
+            {
                 let file = std::fs::File::create(&path).map_err(|e| format!("{path}: {e}"))?;
                 let cols = TraceColumns { mag: false, depth: false, truth: true };
                 let mut w = TraceWriter::new(std::io::BufWriter::new(file), cols)
