@@ -338,3 +338,24 @@ pub struct Settings {
     /// EKF tuning.
     pub ekf: EkfSettings,
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Constant noise density: the variance of one sample is `accel_var` at the reference
+    /// rate exactly (so 50 Hz behaves as before the reference rate existed), twice that at
+    /// twice the rate, a fifth at a fifth of it.
+    #[test]
+    fn the_accelerometer_variance_per_sample_scales_with_the_rate() {
+        let n = NoiseSettings::default();
+        assert_eq!((n.accel_var, n.accel_ref_rate_hz), (2.376e-6, 50.0));
+        assert_eq!(n.accel_var_per_sample(0.02), 2.376e-6);
+        for (dt, want) in [(0.01f32, 4.752e-6f32), (0.004, 1.188e-5), (0.1, 4.752e-7)] {
+            let got = n.accel_var_per_sample(dt);
+            assert!((got / want - 1.0).abs() < 1e-6, "dt {dt}: {got}, by hand {want}");
+        }
+        let m = NoiseSettings { accel_ref_rate_hz: 100.0, ..n };
+        assert!((m.accel_var_per_sample(0.02) / 1.188e-6 - 1.0).abs() < 1e-6);
+    }
+}
