@@ -719,8 +719,9 @@ mod tests {
     /// with the rate, as the gyro's does. With a fixed variance per sample the steady-state
     /// gain per sample would go as √(q·dt/r), q ∝ dt the gyro's noise per sample, and the
     /// correction time as √dt: at 250 Hz √5 = 2.2 times shorter than at 50 Hz (measured:
-    /// 0.120 s and 0.112 s; with the variance held per sample, 0.120 s and 0.052 s). A still, level board, the filter settled for 30 s, then its
-    /// attitude turned 2° about north: the time until the error is down to 1°. The low-pass is
+    /// 0.120 s and 0.112 s; with the variance held per sample, 0.120 s and 0.052 s). A still,
+    /// level board, the filter settled for 30 s, then its attitude turned 2° about north: the
+    /// time until the error is down to 1°. The low-pass is
     /// kept out of it (a huge `motion_scale`: no delay whatever the motion level), because the
     /// turn is a step of the specific force in NED, which the motion level sees for one sample
     /// whatever the sample's length.
