@@ -755,6 +755,30 @@ mod tests {
         );
     }
 
+    /// The measurement variance follows `dt`, times `accel_var_scale`, but only once `dt` has
+    /// moved by more than [`VAR_DT_ULPS`] (the firmware's measured `dt` jitters by a few
+    /// cycles): exactly 2¹⁵ units in the last place keep it, one more recomputes it.
+    #[test]
+    fn the_measurement_variance_follows_the_sample_rate_past_the_jitter_allowance() {
+        let mut s = Settings::default();
+        s.ekf.accel_var_scale = 4.0;
+        let mut f = quiet_filter(s);
+        let level = Vec3::new(0.0, 0.0, -1.0);
+        let at = |f: &mut Ekf, dt: f32| {
+            f.accel_update(dt, level, 1.0, &IDENTITY, 0.0);
+            f.accel_var
+        };
+        let v = at(&mut f, 0.02);
+        assert!((v / (4.0 * 2.376e-6) - 1.0).abs() < 1e-6, "{v}");
+        let jitter = f32::from_bits(0.02f32.to_bits() + (1 << 15));
+        assert_eq!(at(&mut f, jitter).to_bits(), v.to_bits(), "recomputed within the allowance");
+        let moved = f32::from_bits(0.02f32.to_bits() + (1 << 15) + 1);
+        let want = 4.0 * 2.376e-6 * (0.02 / moved);
+        assert!((at(&mut f, moved) / want - 1.0).abs() < 1e-6, "not recomputed past it");
+        assert!((at(&mut f, 0.01) / (8.0 * 2.376e-6) - 1.0).abs() < 1e-6);
+        assert!((f.accel_var3 / (24.0 * 2.376e-6) - 1.0).abs() < 1e-6);
+    }
+
     /// A started filter at the identity with a covariance so small that the Kalman correction
     /// (which also turns the low-pass's stages) is negligible: the stages then show the
     /// low-pass's own weight α.

@@ -163,18 +163,24 @@ fn a_tilt_error_decays_in_the_same_time_at_any_sample_rate() {
         panic!("{}: the tilt error did not halve in 10 s at {rate} Hz", f.name());
     }
     let s = Settings::default();
-    let t = |rate: f32, ss: bool| {
+    let t = |rate: f32, ss: bool, scale: f32| {
         if ss {
-            half_time(&mut crate::ssukf::SsUkf::new(s, Default::default()), rate, down, tilted)
+            let p = crate::ssukf::SsUkfParams { accel_var_scale: scale, ..Default::default() };
+            half_time(&mut crate::ssukf::SsUkf::new(s, p), rate, down, tilted)
         } else {
-            half_time(&mut crate::ukf::Ukf::new(s, Default::default()), rate, down, tilted)
+            let p = crate::ukf::UkfParams { accel_var_scale: scale, ..Default::default() };
+            half_time(&mut crate::ukf::Ukf::new(s, p), rate, down, tilted)
         }
     };
     for ss in [false, true] {
-        let (t50, t250) = (t(50.0, ss), t(250.0, ss));
+        let (t50, t250) = (t(50.0, ss, 1.0), t(250.0, ss, 1.0));
         assert!(
             (t250 / t50 - 1.0).abs() < 0.1,
             "ss {ss}: halving time {t50} s at 50 Hz, {t250} s at 250 Hz"
         );
+        // `accel_var_scale` multiplies the per-sample variance: 16 times the variance, about
+        // 4 times the correction time (the gain goes as 1/√r).
+        let t16 = t(50.0, ss, 16.0);
+        assert!(t16 > 2.5 * t50, "ss {ss}: {t16} s with accel_var_scale 16, {t50} s with 1");
     }
 }
