@@ -26,14 +26,7 @@ fn run() -> Result<(), String> {
     };
     let moving_start = std::env::var("HANDHELD_MOVING_START").is_ok_and(|v| v == "1");
     let trace_realistic = std::env::var("HANDHELD_TRACE_REALISTIC").is_ok_and(|v| v == "1");
-    let rate_hz = match std::env::var("HANDHELD_RATE") {
-        Ok(v) => v
-            .parse::<f64>()
-            .ok()
-            .filter(|r| r.is_finite() && *r >= 1.0)
-            .ok_or(format!("HANDHELD_RATE={v}: not a sample rate in Hz (>= 1)"))?,
-        Err(_) => handheld::RATE_HZ,
-    };
+    let rate_hz = host_tests::sim::rate_from_env("HANDHELD_RATE", handheld::RATE_HZ)?;
     let mut base = ReplayConfig::default();
     base.conditioning.lever_arm = ekf_core::lever_arm::LeverArm::NONE;
     let mut rs = ReplaySettings::new(device_form(&base));

@@ -59,14 +59,7 @@ fn run() -> Result<(), String> {
     }
 
     // The simulated rows at another rate (`TRADEOFF_RATE=HZ`; the goals are set for 50 Hz).
-    let rate_hz = match std::env::var("TRADEOFF_RATE") {
-        Ok(v) => v
-            .parse::<f64>()
-            .ok()
-            .filter(|r| r.is_finite() && *r >= 1.0)
-            .ok_or(format!("TRADEOFF_RATE={v}: not a sample rate in Hz (>= 1)"))?,
-        Err(_) => RATE_HZ,
-    };
+    let rate_hz = host_tests::sim::rate_from_env("TRADEOFF_RATE", RATE_HZ)?;
     let goals = ROBUST_GOALS.iter().chain(GOALS.iter().take(10));
     for g in goals {
         let mut v = [0.0; 2];

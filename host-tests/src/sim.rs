@@ -116,6 +116,20 @@ pub type V3 = [f64; 3];
 /// Quaternion `(w, x, y, z)`, f64, Hamilton, body → NED.
 pub type Q = [f64; 4];
 
+/// A sample rate from the environment variable `var` (the dev examples' `HANDHELD_RATE`,
+/// `TRADEOFF_RATE`), Hz: `default` when it is not set, an error naming it when it is not a
+/// finite rate of at least 1 Hz.
+pub fn rate_from_env(var: &str, default: f64) -> Result<f64, String> {
+    match std::env::var(var) {
+        Ok(v) => v
+            .parse::<f64>()
+            .ok()
+            .filter(|r| r.is_finite() && *r >= 1.0)
+            .ok_or(format!("{var}={v}: not a sample rate in Hz (>= 1)")),
+        Err(_) => Ok(default),
+    }
+}
+
 /// Cross product.
 pub fn cross(a: V3, b: V3) -> V3 {
     [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
