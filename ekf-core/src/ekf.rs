@@ -49,6 +49,13 @@ const ONSET_SPEEDUP: f32 = 10.0;
 /// per sample.
 const VAR_DT_ULPS: u32 = 1 << 15;
 
+/// The interval over which the norm's change counts as vibration, s. Vibration is measured as
+/// what the norm does within it (above about 16 Hz), motion as the rest. Up to 100 Hz that is
+/// the change from one sample to the next; at a higher rate the change from a low-pass of the
+/// norm with this time constant, so that a vibration which a fast sampler resolves (20–40 Hz
+/// turns by only 36–72° per sample at 200 Hz) is still taken for vibration.
+const VIB_STEP_S: f32 = 0.01;
+
 /// Longest knock, s: rejections that last longer raise the motion level.
 pub const KNOCK_MAX_S: f32 = 0.2;
 
@@ -93,11 +100,16 @@ pub struct Ekf {
     accel_h: [f32; 2],
     /// The low-pass's first stage, g (same frame).
     accel_h1: [f32; 2],
-    /// The previous sample's deviation of the specific force's norm from 1 g, g.
+    /// The deviation of the specific force's norm from 1 g, g: the previous sample's, or at
+    /// rates above 1/[`VIB_STEP_S`] its low-pass over `VIB_STEP_S`.
     norm_prev: f32,
-    /// Mean square of the norm's change from one sample to the next, g² (over
-    /// `motion_time_constant`): for vibration and noise, whose samples are independent, twice
-    /// their variance along one axis, i.e. their variance in the two horizontal axes together.
+    /// The weight of one sample in that low-pass, `min(dt / VIB_STEP_S, 1)` (1: the previous
+    /// sample itself).
+    vib_alpha: f32,
+    /// Mean square of the norm's change from one sample to the next (above 1/[`VIB_STEP_S`],
+    /// from `norm_prev`'s low-pass, scaled), g² (over `motion_time_constant`): for vibration
+    /// and noise, whose samples are independent, twice their variance along one axis, i.e.
+    /// their variance in the two horizontal axes together.
     step_var: f32,
     /// `vib_rate²`, (rad/s)², and `vib_time_constant · vib_rate²`, (rad/s)²·s.
     vib_rate2: (f32, f32),
@@ -143,6 +155,7 @@ impl Ekf {
             accel_h: [0.0; 2],
             accel_h1: [0.0; 2],
             norm_prev: 0.0,
+            vib_alpha: 1.0,
             step_var: 0.0,
             vib_rate2: {
                 let w2 = settings.ekf.vib_rate * settings.ekf.vib_rate;
@@ -284,21 +297,32 @@ impl Ekf {
         let dev = [an[0] - self.accel_h1[0], an[1] - self.accel_h1[1]];
         let dn = norm_g - 1.0;
         let dev2 = dev[0] * dev[0] + dev[1] * dev[1] + dn * dn;
-        // The norm's change since the previous sample: the vibration's share (below).
+        // The norm's change since the previous sample (at rates above 1/VIB_STEP_S, from its
+        // low-pass over VIB_STEP_S): the vibration's share (below). For white noise of
+        // variance σ² the change from the low-pass has the variance 2σ²/(2 − α): scaled by
+        // 2 − α it is 2σ² at any rate, as the step from one sample to the next is.
         let step = dn - self.norm_prev;
-        self.norm_prev = dn;
+        let step2 = if fcmp::lt(self.vib_alpha, 1.0) {
+            self.norm_prev += self.vib_alpha * step;
+            (2.0 - self.vib_alpha) * (step * step)
+        } else {
+            self.norm_prev = dn;
+            step * step
+        };
         let m = self.motion_var;
         let bits = dt.to_bits();
         if bits.abs_diff(self.accel_var_dt) > VAR_DT_ULPS {
             // Once per sample rate (a measured `dt` that jitters by less than [`VAR_DT_ULPS`]
             // keeps it: one division, not one per sample): the white noise's variance per sample
             // grows with the sample rate, so that the tilt's correction time, in seconds, does
-            // not depend on the rate.
+            // not depend on the rate; and the weight of the norm's low-pass for the vibration
+            // share.
             let n = &self.settings.noise;
             let var = n.accel_var_per_sample(dt) * self.settings.ekf.accel_var_scale;
             self.accel_var = var;
             self.accel_var3 = 3.0 * var;
             self.accel_var_dt = bits;
+            self.vib_alpha = fcmp::min(dt * (1.0 / VIB_STEP_S), 1.0);
         }
         if bits != self.motion_dt.0.to_bits() {
             // Once per sample rate: the weight of one sample in the motion level's average, and
@@ -329,7 +353,7 @@ impl Ekf {
         };
         self.motion_var = m_next;
         let m = m_next; // this sample counts in its own weight
-        self.step_var += self.motion_dt.1 * (step * step - self.step_var);
+        self.step_var += self.motion_dt.1 * (step2 - self.step_var);
         // Motion weight w = m / (m + motion_scale) in [0, 1): 0 still, → 1 in strong motion.
         // The low-pass delays by w times a time constant: still, each sample is used as it is;
         // in motion, accelerations average out in the (almost inertial) NED frame while gravity
@@ -863,6 +887,42 @@ mod tests {
         }
         assert!((f.step_var / 7.9e-5 - 1.0).abs() < 0.1, "bob: {}", f.step_var);
         assert!((f.motion_var / 0.02 - 1.0).abs() < 0.1, "bob's level: {}", f.motion_var);
+    }
+
+    /// Above 100 Hz the vibration share is the norm's change from its low-pass over
+    /// `VIB_STEP_S` (weight α = dt/0.01 s = 0.5 at 200 Hz), scaled by 2 − α. The change from
+    /// the low-pass is (1 − z⁻¹)/(1 − (1 − α) z⁻¹) of the norm: for white noise its variance
+    /// is 2σ²/(2 − α), so the scaled share is 2σ², as the step between independent samples
+    /// at 50 Hz. A 25 Hz vibration of amplitude 0.02 g (σ² = 2·10⁻⁴ g²) turns by 45° per
+    /// sample: |1 − e^(−iπ/4)|² / |1 − 0.5 e^(−iπ/4)|² = 0.586/0.543 of σ², times 1.5:
+    /// 3.24·10⁻⁴ g² by hand, most of 2σ²; the step from the previous sample would give
+    /// 2σ²(1 − cos 45°) = 1.17·10⁻⁴ g², and the rest would lengthen the delay as motion.
+    #[test]
+    fn above_100_hz_the_vibration_share_is_the_change_within_ten_milliseconds() {
+        let dt = 0.005f32;
+        let mut f = quiet_filter(Settings::default());
+        for k in 0..6000 {
+            let t = k as f32 * dt;
+            let n = 1.0 + 0.02 * (core::f32::consts::TAU * 25.0 * t).sin();
+            f.accel_update(dt, Vec3::new(0.0, 0.0, -n), n, &IDENTITY, 0.0);
+        }
+        assert_eq!(f.vib_alpha, 0.5);
+        assert!((f.step_var / 3.24e-4 - 1.0).abs() < 0.05, "25 Hz vibration: {}", f.step_var);
+
+        let mut rng = 0x2545_f491_4f6c_dd1du64;
+        let mut f = quiet_filter(Settings::default());
+        for _ in 0..6000 {
+            let mut sum = 0.0f32; // Irwin–Hall: the sum of 12 uniforms minus 6
+            for _ in 0..12 {
+                rng ^= rng << 13;
+                rng ^= rng >> 7;
+                rng ^= rng << 17;
+                sum += (rng >> 40) as f32 / (1u64 << 24) as f32;
+            }
+            let n = 1.0 + 0.02 * (sum - 6.0);
+            f.accel_update(dt, Vec3::new(0.0, 0.0, -n), n, &IDENTITY, 0.0);
+        }
+        assert!((f.step_var / 8e-4 - 1.0).abs() < 0.25, "noise: {}", f.step_var);
     }
 
     /// The motion level averages over `motion_time_constant` with weight β = dt/τ per sample,
