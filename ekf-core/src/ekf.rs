@@ -119,6 +119,11 @@ pub struct Ekf {
     inv_motion_tau: f32,
     /// `3·accel_var`: the motion level of the datasheet noise alone, g².
     accel_var3: f32,
+    /// The variance of one sample per axis, as a multiple of the motion level, with which the
+    /// bias learns in motion: 1/3 at `noise.accel_ref_rate`, scaled to the sample rate as
+    /// `accel_var` is (motion's samples are alike from one to the next: sampled faster, they
+    /// carry no more information per second).
+    scatter_var: f32,
     /// `dt` of the last accelerometer update, its motion-average weight `min(dt/τ, 1)` and the
     /// onset weight `min(ONSET_SPEEDUP·dt/τ, 1)`.
     motion_dt: (f32, f32, f32),
@@ -164,6 +169,7 @@ impl Ekf {
             prev_rate: None,
             inv_motion_tau: 1.0 / settings.ekf.motion_time_constant.max(1e-3),
             accel_var3: 3.0 * settings.noise.accel_var * settings.ekf.accel_var_scale,
+            scatter_var: 1.0 / 3.0,
             motion_dt: (0.0, 0.0, 0.0),
         }
     }
@@ -315,12 +321,14 @@ impl Ekf {
             // Once per sample rate (a measured `dt` that jitters by less than [`VAR_DT_ULPS`]
             // keeps it: one division, not one per sample): the white noise's variance per sample
             // grows with the sample rate, so that the tilt's correction time, in seconds, does
-            // not depend on the rate; and the weight of the norm's low-pass for the vibration
-            // share.
+            // not depend on the rate; so does the variance the bias learns with in motion
+            // (below); and the weight of the norm's low-pass for the vibration share.
             let n = &self.settings.noise;
-            let var = n.accel_var_per_sample(dt) * self.settings.ekf.accel_var_scale;
+            let ratio = n.accel_rate_ratio(dt);
+            let var = n.accel_var * ratio * self.settings.ekf.accel_var_scale;
             self.accel_var = var;
             self.accel_var3 = 3.0 * var;
+            self.scatter_var = ratio * (1.0 / 3.0);
             self.accel_var_dt = bits;
             self.vib_alpha = fcmp::min(dt * (1.0 / VIB_STEP_S), 1.0);
         }
@@ -394,7 +402,8 @@ impl Ekf {
             return Flags::HEALTH_RESET;
         };
         // The bias learns from this measurement as if its variance were that of the raw
-        // samples' scatter, m/3 per axis, when that is the larger: the low-pass makes
+        // samples' scatter, m/3 per axis (at `noise.accel_ref_rate`; scaled to the sample rate
+        // as the noise's variance is, `scatter_var`), when that is the larger: the low-pass makes
         // consecutive measurements alike, not independent, so it adds no information about the
         // bias, and vibration or motion would otherwise drive the bias through the tilt–bias
         // correlation. And robustly: an innovation beyond ROBUST_NIS of what S expects moves
@@ -405,7 +414,8 @@ impl Ekf {
         let outlier = fcmp::gt(nis, ROBUST_NIS);
         if scatter || outlier {
             let p0 = self.p.m[0][0];
-            let (num, den) = if scatter { (p0 + var, p0 + m * (1.0 / 3.0)) } else { (1.0, 1.0) };
+            let (num, den) =
+                if scatter { (p0 + var, p0 + m * self.scatter_var) } else { (1.0, 1.0) };
             let (c, den_n) = if outlier { (ROBUST_NIS, nis) } else { (1.0, 1.0) };
             t.bias_gain = (num * c) / (den * den_n);
         }
@@ -949,16 +959,19 @@ mod tests {
     /// its gain is scaled by β = (P₀₀ + σ²)/(P₀₀ + m/3) (docs/filter.md, step 4). With the
     /// low-pass off (α = 1: the measurement is this sample's horizontal specific force) and the
     /// tilt x error correlated with the x bias only (P₀₃ = c), one sample east e (a tilt x
-    /// measurement of −e) moves the x bias by −β·c·e/(P₀₀ + σ²) = −c·e/(P₀₀ + m/3) (the first scalar update; the second, in
-    /// y, does not reach it), against −c·e/(P₀₀ + σ²) still.
+    /// measurement of −e) moves the x bias by −β·c·e/(P₀₀ + σ²) = −c·e/(P₀₀ + m/3) (the first
+    /// scalar update; the second, in y, does not reach it), against −c·e/(P₀₀ + σ²) still. At
+    /// 200 Hz both variances are 4 times those at 50 Hz (`noise.accel_ref_rate`): −c·e/(P₀₀ +
+    /// 4m/3) in motion, so that the bias learns as much per second at any rate.
     #[test]
     fn in_motion_the_bias_learns_with_the_samples_scatter_as_variance() {
         let mut s = Settings::default();
         s.ekf.accel_time_constant = 0.0;
         s.ekf.vib_time_constant = 0.0;
-        let var = s.noise.accel_var * s.ekf.accel_var_scale;
         let (p0, c) = (1e-2f32, 1e-4f32);
-        for m in [1e-3f32, 0.0] {
+        for (m, dt) in [(1e-3f32, 0.02f32), (0.0, 0.02), (1e-3, 0.005), (0.0, 0.005)] {
+            let ratio = 0.02 / dt;
+            let var = s.noise.accel_var * s.ekf.accel_var_scale * ratio;
             let mut f = Ekf::new(s);
             f.set_attitude(Quaternion::IDENTITY, Vec3::ZERO);
             let mut p = Cov6::diagonal([p0, p0, 1e-2, 1e-4, 1e-4, 1e-4]);
@@ -969,12 +982,15 @@ mod tests {
             // This sample's deviation equals the level, so the level stays m.
             let e = if m > 0.0 { m.sqrt() } else { 1e-3 };
             let a = Vec3::new(0.0, e, -(1.0 - e * e).sqrt());
-            let flags = f.accel_update(0.02, a, 1.0, &IDENTITY, 0.0);
+            let flags = f.accel_update(dt, a, 1.0, &IDENTITY, 0.0);
             assert!(flags.contains(Flags::ACCEL_USED), "{flags:?}");
-            let den = if m > 3.0 * var { p0 + m / 3.0 } else { p0 + var };
+            let den = if m > 3.0 * var { p0 + m / 3.0 * ratio } else { p0 + var };
             let want = -c * e / den;
             let got = f.bias.x;
-            assert!((got / want - 1.0).abs() < 1e-3, "m {m}: bias moved {got}, by hand {want}");
+            assert!(
+                (got / want - 1.0).abs() < 1e-3,
+                "m {m}, dt {dt}: bias moved {got}, by hand {want}"
+            );
         }
     }
 

@@ -50,7 +50,13 @@ impl NoiseSettings {
     /// `accel_var · (1/dt) / accel_ref_rate_hz` (constant noise density). Exactly `accel_var`
     /// at the reference rate.
     pub fn accel_var_per_sample(&self, dt: f32) -> f32 {
-        self.accel_var / (dt * self.accel_ref_rate_hz).max(1e-6)
+        self.accel_var * self.accel_rate_ratio(dt)
+    }
+
+    /// The sample rate `1/dt` over `accel_ref_rate_hz`: how much more (or less) variance one
+    /// sample has than one at the reference rate. Exactly 1 at the reference rate.
+    pub fn accel_rate_ratio(&self, dt: f32) -> f32 {
+        1.0 / (dt * self.accel_ref_rate_hz).max(1e-6)
     }
 }
 
