@@ -88,8 +88,9 @@ pub struct Ekf {
     /// per sample at `noise.accel_ref_rate`, scaled to the sample rate (constant noise
     /// density), for the `dt` whose bits are `accel_var_dt`.
     accel_var: f32,
-    /// The bits of the `dt` for which `accel_var` and `accel_var3` were last computed (0: not
-    /// yet); they are recomputed when `dt` moves by more than [`VAR_DT_ULPS`].
+    /// The bits of the `dt` for which `accel_var`, `accel_var3`, `scatter_var` and `vib_alpha`
+    /// were last computed (0: not yet); they are recomputed when `dt` moves by more than
+    /// [`VAR_DT_ULPS`].
     accel_var_dt: u32,
     /// Started in motion, and the bias is not yet as certain as a still window makes it.
     moving_start: bool,
@@ -755,10 +756,10 @@ mod tests {
     /// correction time as √dt: at 250 Hz √5 = 2.2 times shorter than at 50 Hz (measured:
     /// 0.120 s and 0.112 s; with the variance held per sample, 0.120 s and 0.052 s). A still,
     /// level board, the filter settled for 30 s, then its attitude turned 2° about north: the
-    /// time until the error is down to 1°. The low-pass is
-    /// kept out of it (a huge `motion_scale`: no delay whatever the motion level), because the
-    /// turn is a step of the specific force in NED, which the motion level sees for one sample
-    /// whatever the sample's length.
+    /// time until the error is down to 1°. The low-pass is kept out of it (a huge
+    /// `motion_scale`: no delay whatever the motion level), because the turn is a step of the
+    /// specific force in NED, which the motion level sees for one sample whatever the sample's
+    /// length.
     #[test]
     fn a_tilt_error_decays_in_the_same_time_at_any_sample_rate() {
         let mut s = Settings::default();
