@@ -42,11 +42,12 @@ const ROBUST_NIS: f32 = 2.0;
 /// faster.
 const ONSET_SPEEDUP: f32 = 10.0;
 
-/// How far, in units in the last place of its bits, `dt` may move before the accelerometer's
-/// per-sample variance is recomputed: 2¹⁵ of the 2²³ steps of a power of two, a relative change
-/// of 0.2–0.4 %. The firmware measures `dt` from the cycle counter, so it jitters by a few
-/// cycles in every sample; the variance changes by as little, and the division is not paid
-/// per sample.
+/// How far, in units in the last place of its bits, `dt` may move before what depends on the
+/// sample rate (the accelerometer's per-sample variance, the motion level's weights, the
+/// vibration low-pass's weight) is recomputed: 2¹⁵ of the 2²³ steps of a power of two, a
+/// relative change of 0.2–0.4 %. The firmware measures `dt` from the cycle counter, so it
+/// jitters by a few cycles in every sample; those quantities change by as little, and they are
+/// not recomputed (a division among them) every sample.
 const VAR_DT_ULPS: u32 = 1 << 15;
 
 /// The interval over which the norm's change counts as vibration, s. Vibration is measured as
@@ -86,12 +87,12 @@ pub struct Ekf {
     noise: ProcessNoise,
     /// Variance of one tilt measurement component, rad²: `noise.accel_var · accel_var_scale`
     /// per sample at `noise.accel_ref_rate`, scaled to the sample rate (constant noise
-    /// density), for the `dt` whose bits are `accel_var_dt`.
+    /// density), for the `dt` whose bits are `rate_dt`.
     accel_var: f32,
-    /// The bits of the `dt` for which `accel_var`, `accel_var3`, `scatter_var` and `vib_alpha`
-    /// were last computed (0: not yet); they are recomputed when `dt` moves by more than
-    /// [`VAR_DT_ULPS`].
-    accel_var_dt: u32,
+    /// The bits of the `dt` for which `accel_var`, `accel_var3`, `scatter_var`, `vib_alpha` and
+    /// `motion_w` were last computed (0: not yet); they are recomputed when `dt` moves by more
+    /// than [`VAR_DT_ULPS`].
+    rate_dt: u32,
     /// Started in motion, and the bias is not yet as certain as a still window makes it.
     moving_start: bool,
     /// Motion level: mean squared deviation of the NED specific force from its low-pass, g².
@@ -125,9 +126,9 @@ pub struct Ekf {
     /// `accel_var` is (motion's samples are alike from one to the next: sampled faster, they
     /// carry no more information per second).
     scatter_var: f32,
-    /// `dt` of the last accelerometer update, its motion-average weight `min(dt/τ, 1)` and the
-    /// onset weight `min(ONSET_SPEEDUP·dt/τ, 1)`.
-    motion_dt: (f32, f32, f32),
+    /// The motion-average weight of one sample, `min(dt/τ, 1)`, and the onset weight
+    /// `min(ONSET_SPEEDUP·dt/τ, 1)`, for the `dt` of `rate_dt`.
+    motion_w: (f32, f32),
 }
 
 impl Ekf {
@@ -155,7 +156,7 @@ impl Ekf {
                 }
             },
             accel_var: settings.noise.accel_var * settings.ekf.accel_var_scale,
-            accel_var_dt: 0,
+            rate_dt: 0,
             moving_start: false,
             motion_var: 0.0,
             accel_h: [0.0; 2],
@@ -171,7 +172,7 @@ impl Ekf {
             inv_motion_tau: 1.0 / settings.ekf.motion_time_constant.max(1e-3),
             accel_var3: 3.0 * settings.noise.accel_var * settings.ekf.accel_var_scale,
             scatter_var: 1.0 / 3.0,
-            motion_dt: (0.0, 0.0, 0.0),
+            motion_w: (0.0, 0.0),
         }
     }
 
@@ -318,26 +319,25 @@ impl Ekf {
         };
         let m = self.motion_var;
         let bits = dt.to_bits();
-        if bits.abs_diff(self.accel_var_dt) > VAR_DT_ULPS {
+        if bits.abs_diff(self.rate_dt) > VAR_DT_ULPS {
             // Once per sample rate (a measured `dt` that jitters by less than [`VAR_DT_ULPS`]
-            // keeps it: one division, not one per sample): the white noise's variance per sample
+            // keeps them: one division, not one per sample): the white noise's variance per sample
             // grows with the sample rate, so that the tilt's correction time, in seconds, does
             // not depend on the rate; so does the variance the bias learns with in motion
-            // (below); and the weight of the norm's low-pass for the vibration share.
+            // (below); the weight of the norm's low-pass for the vibration share; and the
+            // motion level's weights.
             let n = &self.settings.noise;
             let ratio = n.accel_rate_ratio(dt);
             let var = n.accel_var * ratio * self.settings.ekf.accel_var_scale;
             self.accel_var = var;
             self.accel_var3 = 3.0 * var;
             self.scatter_var = ratio * (1.0 / 3.0);
-            self.accel_var_dt = bits;
+            self.rate_dt = bits;
             self.vib_alpha = fcmp::min(dt * (1.0 / VIB_STEP_S), 1.0);
-        }
-        if bits != self.motion_dt.0.to_bits() {
-            // Once per sample rate: the weight of one sample in the motion level's average, and
-            // at the onset of motion.
+            // The weight of one sample in the motion level's average, and at the onset of
+            // motion.
             let w = dt * self.inv_motion_tau;
-            self.motion_dt = (dt, fcmp::min(w, 1.0), fcmp::min(ONSET_SPEEDUP * w, 1.0));
+            self.motion_w = (fcmp::min(w, 1.0), fcmp::min(ONSET_SPEEDUP * w, 1.0));
         }
         // A knock is a jump far beyond the current motion level (KNOCK_SIGMAS standard
         // deviations), so swinging or bobbing is not mistaken for one.
@@ -346,7 +346,7 @@ impl Ekf {
         // (for noise alone χ²₃/3 > 9, six samples in a million) is averaged in ONSET_SPEEDUP
         // times faster, so that the low-pass lengthens within a tenth of the
         // motion average's time constant, before the motion's first swing has pulled the tilt.
-        let k = if fcmp::gt(dev2, allowance) { self.motion_dt.2 } else { self.motion_dt.1 };
+        let k = if fcmp::gt(dev2, allowance) { self.motion_w.1 } else { self.motion_w.0 };
         let m_next = m + k * (dev2 - m);
         let bypass = match self.gate.pre_check(dt, a_g, norm_g, allowance) {
             PreCheck::Reject(f) => {
@@ -362,7 +362,7 @@ impl Ekf {
         };
         self.motion_var = m_next;
         let m = m_next; // this sample counts in its own weight
-        self.step_var += self.motion_dt.1 * (step2 - self.step_var);
+        self.step_var += self.motion_w.0 * (step2 - self.step_var);
         // Motion weight w = m / (m + motion_scale) in [0, 1): 0 still, → 1 in strong motion.
         // The low-pass delays by w times a time constant: still, each sample is used as it is;
         // in motion, accelerations average out in the (almost inertial) NED frame while gravity
