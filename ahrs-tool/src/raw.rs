@@ -73,6 +73,7 @@ impl RawJoiner {
                                 mag: None,
                                 depth: None,
                                 truth: None,
+                                movement: None,
                             };
                             self.pending = Some((v[0], Logged { row, device: None }));
                         }

@@ -3,8 +3,9 @@
 //! table beside the source's Table 16, (b) the EKF's goals, with plain and with realistic
 //! sensor errors, (c) the hour runs' yaw drift, (d) time per update on this host beside the
 //! source's Table 15; then (e) every filter on the 6 RepoIMU recordings (real truth,
-//! `host_tests::real`) beside VQF's published figures, and (f) the robustness scenarios' tilt
-//! RMSE, plain and realistic, every filter.
+//! `host_tests::real`) beside VQF's published figures, (f) every filter on the 13 BROAD trials
+//! (hand-held, real truth) beside VQF 2.1 online's figures, and (g) the robustness scenarios'
+//! tilt RMSE, plain and realistic, every filter.
 //!
 //! ```sh
 //! cargo bench -p host-tests --bench accuracy                       # print
@@ -12,8 +13,10 @@
 //! ```
 //! `--markdown PATH` also rewrites the section between `<!-- BEGIN accuracy-results -->` and
 //! `<!-- END accuracy-results -->` of PATH (relative paths are taken from the workspace root),
-//! and, where PATH has them, the sections `real-data` (e) and `robust-results` (f) (a missing
-//! one is only printed).
+//! and, where PATH has them, the sections `real-data` (e), `broad-data` (f) and
+//! `robust-results` (g) (a missing one is only printed). The data folders are `$REPOIMU_DIR`
+//! and `$BROAD_DIR`, else `shared/data/repoimu` and `shared/data/broad` beside the workspace;
+//! a missing one is reported on stderr and in its section.
 //! `--seeds N` changes the number of seeds (default 5); `--threads N` the worker threads
 //! (default: the available parallelism). A missed EKF goal is reported (MISS), not an error:
 //! `docs/accuracy.md` explains the misses, and `tests/accuracy.rs` guards against regressions.
@@ -32,17 +35,22 @@ use host_tests::accuracy::{
     source_rmse, source_time_per_cycle, thread_cpu_s, RunResult, GOALS, HOUR_SCENARIOS, RATE_HZ,
     ROBUST_GOALS, ROBUST_SCENARIOS, TABLE16_SCENARIOS,
 };
-use host_tests::real::{score, RepoImu, ScoreRmse};
+use host_tests::real::{score, Broad, RepoImu, ScoreRmse};
 use host_tests::replay::FilterKind;
 use host_tests::sim::{Scenario, SimOptions};
 
 const SECTION: &str = "accuracy-results";
 const REAL_SECTION: &str = "real-data";
+const BROAD_SECTION: &str = "broad-data";
 const ROBUST_SECTION: &str = "robust-results";
 
 /// The real-data goal: mean inclination RMSE below VQF 2.1 online's, heading below 11.0°.
 const REAL_GOAL_INCL: f64 = RepoImu::VQF_ONLINE.0;
 const REAL_GOAL_HEADING: f64 = 11.0;
+/// The BROAD goals for `ekf`: mean inclination and heading RMSE over the 13 trials at most VQF
+/// 2.1 online's.
+const BROAD_GOAL_INCL: f64 = Broad::VQF_ONLINE.0;
+const BROAD_GOAL_HEADING: f64 = Broad::VQF_ONLINE.1;
 const COMMAND: &str = "cargo bench -p host-tests --bench accuracy -- --markdown docs/accuracy.md";
 
 struct Args {
@@ -141,12 +149,18 @@ struct RealResults {
     foreign: Vec<ScoreRmse>,
 }
 
+/// Every filter of [`FilterKind::ALL`], the slow ones first (the UKFs, then the EKF), so that
+/// the long jobs do not end up last on one thread.
+fn slow_first() -> impl Iterator<Item = FilterKind> {
+    let order = [FilterKind::Ukf, FilterKind::SsUkf, FilterKind::Ekf, FilterKind::Cf];
+    order.into_iter().chain(FilterKind::ALL.into_iter().filter(move |f| !order.contains(f)))
+}
+
 fn run_real(threads: usize) -> Result<RealResults, String> {
     let files = RepoImu::load(&RepoImu::dir())?;
     // (filter, foreign, file); the UKFs first (the slow ones).
     let mut jobs: Vec<(FilterKind, bool, usize)> = Vec::new();
-    let order = [FilterKind::Ukf, FilterKind::SsUkf, FilterKind::Ekf, FilterKind::Cf];
-    for &f in order.iter().chain(FilterKind::ALL.iter().filter(|f| !order.contains(f))) {
+    for f in slow_first() {
         jobs.extend((0..files.len()).map(|i| (f, false, i)));
     }
     jobs.extend((0..files.len()).map(|i| (FilterKind::Ekf, true, i)));
@@ -167,6 +181,37 @@ fn run_real(threads: usize) -> Result<RealResults, String> {
         files: files.iter().map(|(n, r)| (n.clone(), r.len())).collect(),
         per_filter,
         foreign: foreign_scores,
+    })
+}
+
+/// Scores on the BROAD trials: the trials' names and rows, and per filter (in
+/// [`FilterKind::ALL`] order) one score per trial, in [`Broad::TRIALS`] order.
+struct BroadResults {
+    trials: Vec<(String, usize)>,
+    per_filter: Vec<Vec<ScoreRmse>>,
+}
+
+/// Every filter on the 13 BROAD trials with [`RepoImu::config`] (the defaults, no lever arm: the
+/// RepoIMU table's configuration), run from each trial's first row and scored over its
+/// `movement = 1` rows with truth.
+fn run_broad(threads: usize) -> Result<BroadResults, String> {
+    let trials = Broad::load(&Broad::dir())?;
+    // (filter, trial); the UKFs first: 285.7 Hz, about 55k rows a trial.
+    let mut jobs: Vec<(FilterKind, usize)> = Vec::new();
+    for f in slow_first() {
+        jobs.extend((0..trials.len()).map(|i| (f, i)));
+    }
+    let cfg = RepoImu::config();
+    let scores = pool(&jobs, threads, |&(f, i)| {
+        score(&trials[i].1, f, &cfg).ok_or_else(|| format!("{}: no scored row", trials[i].0))
+    });
+    let mut per_filter = vec![Vec::new(); FilterKind::ALL.len()];
+    for (&(f, _), s) in jobs.iter().zip(scores) {
+        per_filter[FilterKind::ALL.iter().position(|&x| x == f).unwrap()].push(s?);
+    }
+    Ok(BroadResults {
+        trials: trials.iter().map(|(n, r)| (n.clone(), r.len())).collect(),
+        per_filter,
     })
 }
 
@@ -322,7 +367,11 @@ fn main() {
     let real_started = Instant::now();
     let real = run_real(args.threads);
     let real_s = real_started.elapsed().as_secs_f64();
-    eprintln!("RepoIMU: {real_s:.1} s; robustness ...");
+    eprintln!("RepoIMU: {real_s:.1} s; BROAD ...");
+    let broad_started = Instant::now();
+    let broad = run_broad(args.threads);
+    let broad_s = broad_started.elapsed().as_secs_f64();
+    eprintln!("BROAD: {broad_s:.1} s; robustness ...");
     let robust_started = Instant::now();
     let robust = run_robust(args.seeds, args.threads);
     let robust_s = robust_started.elapsed().as_secs_f64();
@@ -507,12 +556,25 @@ fn main() {
         }
     }
 
-    // (f) Robustness.
+    // (f) BROAD.
+    let mut broad_md = String::new();
+    let broad_summary = match &broad {
+        Ok(broad) => write_broad(&mut broad_md, broad),
+        Err(e) => {
+            let msg = format!("BROAD data not found or unreadable: {e} (set BROAD_DIR)");
+            eprintln!("{msg}");
+            let _ = writeln!(broad_md, "{msg}");
+            msg
+        }
+    };
+
+    // (g) Robustness.
     let mut robust_md = String::new();
     let robust_misses = write_robust(&mut robust_md, &robust, seeds);
 
     println!("{md}");
     println!("{real_md}");
+    println!("{broad_md}");
     println!("{robust_md}");
     if misses.is_empty() {
         println!("EKF goals: all PASS");
@@ -529,9 +591,10 @@ fn main() {
     } else {
         println!("EKF robustness goals missed: {}", robust_misses.join(", "));
     }
+    println!("{broad_summary}");
     println!(
-        "wall time: accuracy runs {accuracy_s:.1} s, RepoIMU {real_s:.1} s, robustness \
-         {robust_s:.1} s, total {:.1} s",
+        "wall time: accuracy runs {accuracy_s:.1} s, RepoIMU {real_s:.1} s, BROAD {broad_s:.1} s, \
+         robustness {robust_s:.1} s, total {:.1} s",
         started.elapsed().as_secs_f64()
     );
 
@@ -556,6 +619,7 @@ fn main() {
             std::process::exit(1);
         };
         update_optional_section(&mut new, &path, REAL_SECTION, &real_md);
+        update_optional_section(&mut new, &path, BROAD_SECTION, &broad_md);
         update_optional_section(&mut new, &path, ROBUST_SECTION, &robust_md);
         if let Err(e) = std::fs::write(&path, new) {
             eprintln!("error: {}: {e}", path.display());
@@ -629,7 +693,93 @@ fn write_real(md: &mut String, real: &RealResults) {
     }
 }
 
-/// Table (f): tilt RMSE of every filter on the robustness scenarios, plain and realistic, the
+/// Table (f): every filter on the BROAD trials beside VQF 2.1 online, the EKF's goals marked,
+/// then `ekf` and `gyro` per trial. Returns a one-line summary of the EKF's goals.
+fn write_broad(md: &mut String, broad: &BroadResults) -> String {
+    let n = broad.trials.len();
+    let rows: usize = broad.trials.iter().map(|t| t.1).sum();
+    let fidx = |f: FilterKind| FilterKind::ALL.iter().position(|&x| x == f).unwrap();
+    let (ekf, gyro) =
+        (&broad.per_filter[fidx(FilterKind::Ekf)], &broad.per_filter[fidx(FilterKind::Gyro)]);
+    let scored: usize = ekf.iter().map(|s| s.rows).sum();
+    let (gi, gh) = (BROAD_GOAL_INCL, BROAD_GOAL_HEADING);
+    let _ = writeln!(md, "### Real data: the BROAD hand-held trials (development set)\n");
+    let _ = writeln!(
+        md,
+        "Generated by `{COMMAND}`. The {n} trials of `shared/data/broad` ({rows} rows at \
+         285.7 Hz, myon aktos-t IMU moved by hand, OptiTrack optical truth; \
+         `shared/data/broad/README.md`), every filter with its default settings and no lever \
+         arm (`RepoImu::config`, as the RepoIMU table), run over every row from the first, \
+         scored by `host_tests::real` as the benchmark scores: only the motion phase \
+         (`movement = 1`) and only rows with truth (the rows where the optical system lost the \
+         sensor, `nan`, are run through and skipped), {scored} rows in all: inclination RMSE, \
+         and heading RMSE with its circular mean removed, degrees, mean over the {n} trials. \
+         VQF 2.1 online: its figures on the same files in that README. Goal for `ekf`: mean \
+         inclination ≤ {gi:.2}° and mean heading ≤ {gh:.2}° (VQF online). These {n} trials are \
+         the benchmark's development set (its other 17 are not shared), not its score.\n"
+    );
+    let _ = writeln!(
+        md,
+        "| filter | inclination (°) | heading (°) | inclination ≤ {gi:.2}° | heading ≤ {gh:.2}° |"
+    );
+    let _ = writeln!(md, "|---|---|---|---|---|");
+    let means = |s: &[ScoreRmse]| {
+        (mean(s.iter().map(|x| x.inclination_deg)), mean(s.iter().map(|x| x.heading_deg)))
+    };
+    for (fi, f) in FilterKind::ALL.iter().enumerate() {
+        let (i, h) = means(&broad.per_filter[fi]);
+        let (vi, vh) =
+            if *f == FilterKind::Ekf { (met(i <= gi), met(h <= gh)) } else { ("—", "—") };
+        let _ = writeln!(md, "| {} | {i:.2} | {h:.2} | {vi} | {vh} |", f.name());
+    }
+    let (oi, oh) = Broad::VQF_ONLINE;
+    let _ = writeln!(md, "| VQF 2.1 online (published) | {oi:.2} | {oh:.2} | — | — |");
+
+    let _ = writeln!(
+        md,
+        "\nPer trial, `ekf` and `gyro` (the gyro-only filter) beside VQF 2.1 online; *rows*: the \
+         rows scored; *ekf < gyro*: the ekf's inclination RMSE below the gyro-only filter's on \
+         that trial (goal: every trial).\n"
+    );
+    let _ = writeln!(
+        md,
+        "| trial | rows | ekf inclination (°) | ekf heading (°) | gyro inclination (°) | \
+         gyro heading (°) | VQF online inclination (°) | VQF online heading (°) | ekf < gyro |"
+    );
+    let _ = writeln!(md, "|---|---|---|---|---|---|---|---|---|");
+    let mut beats = 0;
+    for (k, (name, _)) in broad.trials.iter().enumerate() {
+        let (e, g) = (ekf[k], gyro[k]);
+        let (vi, vh) = Broad::TRIALS[k].1;
+        let better = e.inclination_deg < g.inclination_deg;
+        beats += usize::from(better);
+        let _ = writeln!(
+            md,
+            "| {} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {vi:.2} | {vh:.2} | {} |",
+            name.trim_end_matches(".csv"),
+            e.rows,
+            e.inclination_deg,
+            e.heading_deg,
+            g.inclination_deg,
+            g.heading_deg,
+            if better { "yes" } else { "**no**" }
+        );
+    }
+    let ((ei, eh), (gyi, gyh)) = (means(ekf), means(gyro));
+    let _ = writeln!(
+        md,
+        "| **mean of the {n}** | {scored} | {ei:.2} | {eh:.2} | {gyi:.2} | {gyh:.2} | {oi:.2} | \
+         {oh:.2} | {beats} of {n} |"
+    );
+    format!(
+        "EKF on BROAD: inclination {ei:.2}° (≤ {gi:.2}°: {}), heading {eh:.2}° (≤ {gh:.2}°: {}); \
+         inclination below the gyro-only filter's on {beats} of {n} trials",
+        if ei <= gi { "PASS" } else { "MISS" },
+        if eh <= gh { "PASS" } else { "MISS" }
+    )
+}
+
+/// Table (g): tilt RMSE of every filter on the robustness scenarios, plain and realistic, the
 /// EKF's goals marked. Returns the EKF's misses (plain sensors).
 fn write_robust(md: &mut String, robust: &RobustResults, seeds: u64) -> Vec<&'static str> {
     let _ = writeln!(md, "### Robustness: tilt RMSE beyond the source's scenarios\n");

@@ -311,10 +311,11 @@ fn run_replay(
     // the replay-speed table of docs/accuracy.md); with one core, the threads would only take
     // turns on it, so the single-thread replay does the same work without their hand-overs.
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-    // Inclination and heading errors (`host_tests::real`) of every row with truth.
+    // Inclination and heading errors (`host_tests::real`) of every row with truth, in the
+    // motion phase where the trace marks one (BROAD's `movement`).
     let mut score = AttitudeScore::default();
     let mut score_row = |row: &TraceRow, est: &EstimateRow| {
-        if let Some(t) = row.truth {
+        if let (true, Some(t)) = (row.scored(), row.truth) {
             score.add(est.q.map(f64::from), t.map(f64::from));
         }
     };
@@ -385,7 +386,8 @@ fn run_replay(
         if let Some(s) = score.rmse() {
             say!(
                 "rmse_deg inclination {:.4} heading {:.4} (heading less its circular mean; over \
-                 all {} rows with truth, the window included)",
+                 the {} rows with truth, the window included; only movement = 1 where the trace \
+                 has that column)",
                 s.inclination_deg,
                 s.heading_deg,
                 s.rows

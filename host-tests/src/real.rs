@@ -1,6 +1,7 @@
 //! Scoring against real truth: the inclination and heading errors of the published orientation
-//! benchmarks (RepoIMU, BROAD, VQF's evaluation), and the 6 RepoIMU recordings of
-//! `shared/data/repoimu/` with VQF's figures beside them.
+//! benchmarks (RepoIMU, BROAD, VQF's evaluation), the 6 RepoIMU recordings of
+//! `shared/data/repoimu/` and the 13 BROAD trials of `shared/data/broad/`, with VQF's figures
+//! beside them.
 //!
 //! For every row with truth, the error quaternion is `e = q_est ⊗ conj(q_true)` (both body →
 //! NED), and
@@ -94,13 +95,14 @@ impl AttitudeScore {
 
 /// Replay `rows` through a new `filter` configured by `cfg` (the CLI's replay loop) and score
 /// every row that has truth, from the first row on (the initialisation window included, as
-/// the published figures are).
+/// the published figures are), but only the motion phase where the trace marks one
+/// ([`TraceRow::scored`]: BROAD's `movement` column).
 pub fn score(rows: &[TraceRow], filter: FilterKind, cfg: &ReplayConfig) -> Option<ScoreRmse> {
     let mut f = cfg.make_filter(filter);
     let mut cond = Conditioner::new(cfg.conditioning);
     let mut acc = AttitudeScore::default();
     replay_rows(rows.iter().map(|r| Ok(*r)), f.as_mut(), &mut cond, 0.0, |row, est| {
-        if let Some(t) = row.truth {
+        if let (true, Some(t)) = (row.scored(), row.truth) {
             acc.add(est.q.map(f64::from), t.map(f64::from));
         }
         Ok(())
@@ -139,15 +141,7 @@ impl RepoImu {
 
     /// Read every file: `(name, rows)`.
     pub fn load(dir: &Path) -> Result<Vec<(String, Vec<TraceRow>)>, String> {
-        Self::FILES
-            .iter()
-            .map(|name| {
-                let p = dir.join(name);
-                read_trace_file(&p)
-                    .map(|(_, rows)| (name.to_string(), rows))
-                    .map_err(|e: TraceError| format!("{}: {e}", p.display()))
-            })
-            .collect()
+        load_files(dir, Self::FILES.iter().copied())
     }
 
     /// The replay configuration for a foreign IMU: the project's defaults with no lever arm
@@ -157,6 +151,61 @@ impl RepoImu {
         cfg.conditioning.lever_arm = ekf_core::lever_arm::LeverArm::NONE;
         cfg
     }
+}
+
+/// The 13 BROAD trials of `shared/data/broad` (the development set: the benchmark's other 17
+/// trials are not shared), with VQF's figures from its README.
+pub struct Broad;
+
+impl Broad {
+    /// Each trial's file and VQF 2.1 online's (inclination, heading) RMSE on it, degrees
+    /// (`shared/data/broad/README.md`).
+    pub const TRIALS: [(&'static str, (f64, f64)); 13] = [
+        ("01_undisturbed_slow_rotation_A.csv", (0.60, 4.55)),
+        ("04_undisturbed_slow_rotation_with_breaks_A.csv", (0.79, 3.84)),
+        ("06_undisturbed_fast_rotation_A.csv", (0.80, 0.35)),
+        ("08_undisturbed_fast_rotation_with_breaks_A.csv", (1.76, 7.72)),
+        ("10_undisturbed_slow_translation_A.csv", (0.30, 1.02)),
+        ("15_undisturbed_fast_translation_A.csv", (0.47, 1.43)),
+        ("24_disturbed_tapping_A.csv", (0.61, 0.58)),
+        ("26_disturbed_phone_vibration_A.csv", (0.56, 0.90)),
+        ("28_disturbed_stationary_magnet_A.csv", (1.21, 3.46)),
+        ("30_disturbed_stationary_magnet_C.csv", (1.25, 5.06)),
+        ("32_disturbed_attached_magnet_1cm.csv", (0.56, 2.01)),
+        ("34_disturbed_attached_magnet_3cm.csv", (0.65, 3.50)),
+        ("36_disturbed_attached_magnet_5cm.csv", (0.88, 4.36)),
+    ];
+
+    /// VQF 2.1 online, mean over the 13 trials (inclination, heading), degrees.
+    pub const VQF_ONLINE: (f64, f64) = (0.80, 2.98);
+
+    /// The data folder: `$BROAD_DIR`, else `shared/data/broad` beside the workspace.
+    pub fn dir() -> PathBuf {
+        if let Some(d) = std::env::var_os("BROAD_DIR") {
+            return PathBuf::from(d);
+        }
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/broad")
+    }
+
+    /// Read every trial: `(name, rows)`.
+    pub fn load(dir: &Path) -> Result<Vec<(String, Vec<TraceRow>)>, String> {
+        load_files(dir, Self::TRIALS.iter().map(|t| t.0))
+    }
+}
+
+/// Read `names` from `dir`: `(name, rows)`, or the first error naming its file.
+fn load_files<'a>(
+    dir: &Path,
+    names: impl Iterator<Item = &'a str>,
+) -> Result<Vec<(String, Vec<TraceRow>)>, String> {
+    names
+        .map(|name| {
+            let p = dir.join(name);
+            read_trace_file(&p)
+                .map(|(_, rows)| (name.to_string(), rows))
+                .map_err(|e: TraceError| format!("{}: {e}", p.display()))
+        })
+        .collect()
 }
 
 /// `replay --foreign`: [`RepoImu::config`] and also the configured gyro bias zero (the

@@ -1092,7 +1092,15 @@ impl Iterator for Simulator {
             accel[i] = (accel_clean[i] + self.accel_std * self.accel_rng.normal()) as f32;
         }
         let mag = self.mag_sample(q);
-        let row = TraceRow { t, gyro, accel, mag, depth: None, truth: Some(q.map(|c| c as f32)) };
+        let row = TraceRow {
+            t,
+            gyro,
+            accel,
+            mag,
+            depth: None,
+            truth: Some(q.map(|c| c as f32)),
+            movement: None,
+        };
         Some(SimSample {
             row,
             q,
@@ -1160,7 +1168,15 @@ impl Simulator {
         };
         r.prev = Some((gyro, accel, mag));
         self.real = Some(r);
-        let row = TraceRow { t, gyro, accel, mag, depth: None, truth: Some(q.map(|c| c as f32)) };
+        let row = TraceRow {
+            t,
+            gyro,
+            accel,
+            mag,
+            depth: None,
+            truth: Some(q.map(|c| c as f32)),
+            movement: None,
+        };
         SimSample { row, q, omega, omega_dot, accel_body, accel_clean, t_sample: t_s, repeated }
     }
 }

@@ -8,7 +8,9 @@
 //!   twice;
 //! - required columns: `t` (s, strictly increasing), `gx,gy,gz` (rad/s), `ax,ay,az` (m/s²,
 //!   specific force); optional: `mx,my,mz` (µT, all three or none), `depth` (m),
-//!   `qw,qx,qy,qz` (truth, all four or none);
+//!   `qw,qx,qy,qz` (truth, all four or none; a row whose four truth cells read `nan` has no
+//!   truth, as an optical system that lost the sensor writes it); `movement` (`0` or `1`:
+//!   BROAD's rest and scored motion phases, [`TraceRow::scored`]);
 //! - empty lines and lines whose first non-blank character is `#` are comments, anywhere
 //!   (the `# ...` lines that `host-tests simulate` and `ahrs-tool log` write about the
 //!   recording);
@@ -54,8 +56,20 @@ pub struct TraceRow {
     pub mag: Option<[f32; 3]>,
     /// Depth, m, positive down, when the row has one.
     pub depth: Option<f32>,
-    /// Ground-truth attitude `(qw, qx, qy, qz)`, body FRD → NED, when the row has one.
+    /// Ground-truth attitude `(qw, qx, qy, qz)`, body FRD → NED, when the row has one (an
+    /// optical system that lost the sensor writes `nan` or nothing: `None`).
     pub truth: Option<[f32; 4]>,
+    /// The `movement` column when the trace has one (BROAD: `1` in the scored motion phase,
+    /// `0` in the rest phases around it); `None` without the column.
+    pub movement: Option<bool>,
+}
+
+impl TraceRow {
+    /// True when the benchmarks score this row: it has truth, and it is in the motion phase
+    /// if the trace marks one (`shared/data/broad/README.md`).
+    pub fn scored(&self) -> bool {
+        self.truth.is_some() && self.movement != Some(false)
+    }
 }
 
 /// Why a trace or estimate file could not be read.
@@ -121,6 +135,13 @@ pub enum TraceError {
         /// The empty column of the group.
         column: String,
     },
+    /// A `movement` cell is not `0`, `1` or empty.
+    BadMovement {
+        /// 1-based line number.
+        line: usize,
+        /// The cell's text.
+        text: String,
+    },
     /// `t` is not strictly greater than on the previous data line.
     TimeNotIncreasing {
         /// 1-based line number.
@@ -144,6 +165,7 @@ impl TraceError {
             | TraceError::NotANumber { line, .. }
             | TraceError::NotFinite { line, .. }
             | TraceError::PartialGroup { line, .. }
+            | TraceError::BadMovement { line, .. }
             | TraceError::TimeNotIncreasing { line, .. } => Some(*line),
         }
     }
@@ -158,6 +180,7 @@ impl TraceError {
             | TraceError::PartialGroup { column, .. } => Some(column),
             TraceError::CellCount { column, .. } => column.as_deref(),
             TraceError::TimeNotIncreasing { .. } => Some("t"),
+            TraceError::BadMovement { .. } => Some("movement"),
             _ => None,
         }
     }
@@ -193,6 +216,10 @@ impl fmt::Display for TraceError {
             TraceError::PartialGroup { line, column } => write!(
                 f,
                 "line {line}, column '{column}': empty while other cells of its group are set"
+            ),
+            TraceError::BadMovement { line, text } => write!(
+                f,
+                "line {line}, column 'movement': {text:?} is not 0 (rest phase) or 1 (scored motion)"
             ),
             TraceError::TimeNotIncreasing { line, t, previous } => write!(
                 f,
@@ -411,6 +438,12 @@ impl Record<'_> {
         s == e
     }
 
+    /// True if cell `i` reads `nan` (any case, as `str::parse` takes it): a value the
+    /// recording did not have.
+    pub fn is_nan(&self, i: usize) -> bool {
+        self.text(i).eq_ignore_ascii_case("nan")
+    }
+
     /// An optional group of cells: all empty → `None`, all finite numbers → `Some`.
     pub fn group<const N: usize>(&self, idx: &[usize; N]) -> Result<Option<[f32; N]>, TraceError> {
         let empty = idx.iter().filter(|&&i| self.is_empty(i)).count();
@@ -452,6 +485,7 @@ pub struct TraceReader<R> {
     mag: Option<[usize; 3]>,
     depth: Option<usize>,
     truth: Option<[usize; 4]>,
+    movement: Option<usize>,
     prev_t: Option<f64>,
 }
 
@@ -465,7 +499,8 @@ impl<R: BufRead> TraceReader<R> {
         let mag = csv.group(["mx", "my", "mz"])?;
         let depth = csv.index_of("depth");
         let truth = csv.group(["qw", "qx", "qy", "qz"])?;
-        Ok(TraceReader { csv, t, gyro, accel, mag, depth, truth, prev_t: None })
+        let movement = csv.index_of("movement");
+        Ok(TraceReader { csv, t, gyro, accel, mag, depth, truth, movement, prev_t: None })
     }
 
     /// The optional columns present in the header.
@@ -499,11 +534,24 @@ impl<R: BufRead> TraceReader<R> {
             _ => None,
         };
         let truth = match &self.truth {
+            // Truth lost (every cell `nan`): the row has none, as if its cells were empty.
+            Some(idx) if idx.iter().all(|&i| rec.is_nan(i)) => None,
             Some(idx) => rec.group(idx)?,
             None => None,
         };
+        let movement = match self.movement {
+            Some(i) => match rec.text(i) {
+                "0" => Some(false),
+                "1" => Some(true),
+                "" => None,
+                text => {
+                    return Err(TraceError::BadMovement { line: rec.line(), text: text.into() })
+                }
+            },
+            None => None,
+        };
         self.prev_t = Some(t);
-        Ok(Some(TraceRow { t, gyro, accel, mag, depth, truth }))
+        Ok(Some(TraceRow { t, gyro, accel, mag, depth, truth, movement }))
     }
 }
 
@@ -944,6 +992,37 @@ mod tests {
         assert!(matches!(&e, TraceError::PartialGroup { line: 2, column } if column == "my"));
     }
 
+    /// A recording whose optical system lost the sensor (BROAD: `nan` in all four truth
+    /// cells) has rows without truth, which are read and not scored; `movement` marks the
+    /// scored phase. A truth partly `nan`, or a `movement` other than 0 or 1, is an error
+    /// naming the line and the column.
+    #[test]
+    fn lost_truth_and_the_movement_column() {
+        let h = "t,gx,gy,gz,ax,ay,az,qw,qx,qy,qz,movement\n";
+        let rows = read(&format!(
+            "{h}0,0,0,0,0,0,-9.8,1,0,0,0,0\n0.1,0,0,0,0,0,-9.8,nan,nan,NaN,nan,1\n\
+             0.2,0,0,0,0,0,-9.8,1,0,0,0,1\n"
+        ))
+        .unwrap();
+        assert_eq!(rows[1].truth, None);
+        assert_eq!(
+            rows.iter().map(|r| r.movement).collect::<Vec<_>>(),
+            [Some(false), Some(true), Some(true)]
+        );
+        assert_eq!(rows.iter().map(TraceRow::scored).collect::<Vec<_>>(), [false, false, true]);
+        // Without the column every row with truth is scored.
+        let rows = read("t,gx,gy,gz,ax,ay,az,qw,qx,qy,qz\n0,0,0,0,0,0,-9.8,1,0,0,0\n").unwrap();
+        assert!(rows[0].scored() && rows[0].movement.is_none());
+        let e = read(&format!("{h}0,0,0,0,0,0,-9.8,nan,0,0,0,1\n")).unwrap_err();
+        assert!(matches!(&e, TraceError::NotFinite { line: 2, column, .. } if column == "qw"));
+        let e = read(&format!("{h}0,0,0,0,0,0,-9.8,1,0,0,0,2\n")).unwrap_err();
+        assert!(matches!(&e, TraceError::BadMovement { line: 2, .. }), "{e}");
+        assert_eq!(e.column(), Some("movement"));
+        // A lost gyro or accelerometer is still an error: the filter needs every sample.
+        let e = read(&format!("{h}0,0,nan,0,0,0,-9.8,1,0,0,0,1\n")).unwrap_err();
+        assert!(matches!(&e, TraceError::NotFinite { line: 2, column, .. } if column == "gy"));
+    }
+
     #[test]
     fn write_read_round_trip_is_exact() {
         let cols = TraceColumns { mag: true, depth: true, truth: true };
@@ -959,6 +1038,7 @@ mod tests {
                 mag: if k % 3 == 0 { None } else { Some([x, 2.0 * x, 1e-30]) },
                 depth: if k % 2 == 0 { Some(x.abs()) } else { None },
                 truth: Some([1.0 - x * x, x, -x, 0.0]),
+                movement: None,
             };
             w.row(&row).unwrap();
             if k == 10 {
