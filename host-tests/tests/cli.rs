@@ -375,14 +375,14 @@ fn simulate_is_deterministic_per_seed() {
     assert_eq!(rows, 1200);
 }
 
-/// Parse "rmse_deg inclination I heading H (... over all N rows with truth ...)" from replay's
+/// Parse "rmse_deg inclination I heading H (... over the N rows with truth ...)" from replay's
 /// stdout: (I, H, N).
 fn incl_heading(out: &str) -> (f64, f64, usize) {
     let line =
         out.lines().find(|l| l.starts_with("rmse_deg inclination ")).expect("inclination line");
     let w: Vec<&str> = line.split_whitespace().collect();
     assert_eq!(w[3], "heading", "{line}");
-    let n = line.split("over all ").nth(1).and_then(|r| r.split(' ').next()).expect("row count");
+    let n = line.split("over the ").nth(1).and_then(|r| r.split(' ').next()).expect("row count");
     (w[2].parse().unwrap(), w[4].parse().unwrap(), n.parse().unwrap())
 }
 
