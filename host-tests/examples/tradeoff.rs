@@ -1,6 +1,6 @@
 //! Every figure the EKF's NED low-pass trades against each other (issue #13, sessions 9–10), in
 //! one run, for settings given in the device's language: the mean inclination and heading RMSE
-//! on the 6 RepoIMU recordings (`--example repoimu`), the hand-held case at 0.5 g and 0.15 g
+//! on the 6 RepoIMU recordings (`--example realdata`), the hand-held case at 0.5 g and 0.15 g
 //! (`--example handheld`, seeds 1–3; 100 Hz, and 250 Hz at 0.5 g), and the robustness scenarios' tilt RMSE and the goal rows
 //! of the accuracy bench (seeds 1–5), plain and realistic sensors. Lower is better everywhere:
 //! a change of the estimator is done when no row gets worse.

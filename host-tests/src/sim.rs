@@ -1092,15 +1092,7 @@ impl Iterator for Simulator {
             accel[i] = (accel_clean[i] + self.accel_std * self.accel_rng.normal()) as f32;
         }
         let mag = self.mag_sample(q);
-        let row = TraceRow {
-            t,
-            gyro,
-            accel,
-            mag,
-            depth: None,
-            truth: Some(q.map(|c| c as f32)),
-            movement: None,
-        };
+        let row = sim_row(t, gyro, accel, mag, q);
         Some(SimSample {
             row,
             q,
@@ -1168,15 +1160,7 @@ impl Simulator {
         };
         r.prev = Some((gyro, accel, mag));
         self.real = Some(r);
-        let row = TraceRow {
-            t,
-            gyro,
-            accel,
-            mag,
-            depth: None,
-            truth: Some(q.map(|c| c as f32)),
-            movement: None,
-        };
+        let row = sim_row(t, gyro, accel, mag, q);
         SimSample { row, q, omega, omega_dot, accel_body, accel_clean, t_sample: t_s, repeated }
     }
 }
@@ -1530,6 +1514,11 @@ impl Default for SimOptions {
     fn default() -> Self {
         SimOptions { rate_hz: 50.0, duration_s: None, seed: 1, mag: false, realistic: false }
     }
+}
+
+/// A simulated trace row: the samples and the truth, nothing else.
+fn sim_row(t: f64, gyro: [f32; 3], accel: [f32; 3], mag: Option<[f32; 3]>, q: Q) -> TraceRow {
+    TraceRow { t, gyro, accel, mag, depth: None, truth: Some(q.map(|c| c as f32)), movement: None }
 }
 
 #[cfg(test)]
