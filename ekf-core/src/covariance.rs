@@ -55,28 +55,29 @@ pub enum YawRow {
     Untracked,
 }
 
-/// Innovation statistics of the two-dimensional tilt measurement, arranged for its update as
-/// two sequential scalar updates (`δθ_x`, then `δθ_y`): the measurement noise is independent
-/// per component, so this is exactly the joint update, in fewer operations.
+/// The two rows of the tilt measurement's `H`: `H_k = w·e_k + (0, 0, 0, j[k])` for `k` = 0, 1
+/// (`δθ_x`, `δθ_y`). A low-passed measurement sees the attitude error only in the share `w` of
+/// its weight that real samples carry, and the bias error through the attitude error it built
+/// up over the low-pass's delay (`tilt_lowpass`); `w = 1`, `j = 0` is a plain tilt
+/// measurement.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct TiltInnovation {
-    /// Innovation (δθ_x, δθ_y), rad.
-    pub z: [f32; 2],
-    /// Innovation of the second scalar update: `δθ_y` after the `δθ_x` update, rad.
-    pub z2: f32,
-    /// Inverse innovation variances of the two scalar updates, rad⁻².
-    pub s_inv: [f32; 2],
-    /// Scale of the bias rows' gain in the update, in [0, 1]: 1 is the Kalman gain; less
-    /// learns the bias more slowly from this measurement (exact Joseph-form covariance for the
-    /// scaled gain). [`Cov6::tilt_innovation`] sets 1.
-    pub bias_gain: f32,
+pub struct TiltRows {
+    /// Weight of the current attitude error, 0–1.
+    pub w: f32,
+    /// Sensitivity of each component to the bias error, rad per rad/s (s).
+    pub j: [[f32; 3]; 2],
+    /// A unit body axis along which the update does not correct the bias (the one the
+    /// accelerometer cannot see: NED's vertical, for yaw-split), or zero for none.
+    pub vertical: [f32; 3],
 }
 
-impl TiltInnovation {
-    /// Normalised innovation squared `zᵀ S⁻¹ z` of the joint measurement (the sum of the two
-    /// scalar ones).
-    pub fn nis(&self) -> f32 {
-        self.z[0] * self.z[0] * self.s_inv[0] + self.z2 * self.z2 * self.s_inv[1]
+impl TiltRows {
+    /// `H_k` as a full row.
+    fn row(&self, k: usize) -> [f32; N] {
+        let mut h = [0.0; N];
+        h[k.min(1)] = self.w;
+        h[3..].copy_from_slice(&self.j[k.min(1)]);
+        h
     }
 }
 
@@ -197,124 +198,128 @@ impl Cov6 {
         }
     }
 
-    /// Statistics of the tilt innovation `z` (rad) with measurement variance `r` (rad²) per
-    /// component; the measurement matrix selects states 0 and 1. `None` when an innovation
-    /// variance is not positive and finite.
-    pub fn tilt_innovation(&self, z: [f32; 2], r: f32) -> Option<TiltInnovation> {
-        let p = &self.m;
-        let s1 = p[0][0] + r;
-        if !crate::fcmp::in_pos_range(s1, f32::MAX) {
-            return None;
-        }
-        let inv1 = 1.0 / s1;
-        // After the δθ_x update: gain of state 1, its innovation and variance.
-        let g1 = p[1][0] * inv1;
-        let z2 = z[1] - g1 * z[0];
-        let s2 = p[1][1] - g1 * p[0][1] + r;
-        if !crate::fcmp::in_pos_range(s2, f32::MAX) {
-            return None;
-        }
-        let inv2 = 1.0 / s2;
-        Some(TiltInnovation { z, z2, s_inv: [inv1, inv2], bias_gain: 1.0 })
-    }
-
-    /// Kalman update with the tilt measurement (`H` selects states 0 and 1). With
-    /// [`YawRow::Frozen`] the yaw row gets zero gain (yaw does not move and, Joseph-consistently,
-    /// its variance is unchanged); with [`YawRow::Untracked`] row and column 2 are not touched
-    /// at all. Returns the state correction δx.
-    pub fn update_tilt(&mut self, t: &TiltInnovation, yaw: YawRow) -> [f32; N] {
-        const ALL: [bool; N] = [true; N];
-        const NO_YAW: [bool; N] = [true, true, false, true, true, true];
-        match yaw {
-            YawRow::Free => self.update_tracked(t, ALL),
-            YawRow::Frozen => self.update_tracked(t, NO_YAW),
-            YawRow::Untracked => self.update_untracked(t),
-        }
-    }
-
-    /// The tilt update with the yaw row tracked (magnetometer on or yaw-split off): one
-    /// out-of-line copy for both gain patterns, to keep the firmware's flash down; the default
-    /// configuration's update is the inlined `Untracked` one.
-    #[inline(never)]
-    fn update_tracked(&mut self, t: &TiltInnovation, gain: [bool; N]) -> [f32; N] {
-        let mut dx = [0.0f32; N];
-        let n = rolled();
-        // Gain scale per row: 0 frozen, 1 tilt (and yaw), `bias_gain` on the biases.
-        let k: [f32; N] = core::array::from_fn(|i| match (gain[i], i >= 3) {
-            (false, _) => 0.0,
-            (true, false) => 1.0,
-            (true, true) => t.bias_gain,
-        });
-        for j in 0..2 {
-            let first = j == 0;
-            let (z, inv) = if first { (t.z[0], t.s_inv[0]) } else { (t.z2, t.s_inv[1]) };
-            let p = &mut self.m;
-            let c: [f32; N] = core::array::from_fn(|i| p[i][j]);
-            for i in 0..n {
-                let g = c[i] * inv;
-                if gain[i] {
-                    dx[i] = if first { k[i] * g * z } else { dx[i] + k[i] * g * z };
-                }
-                for l in i..n {
-                    // Joseph form with the scaled gains K_i = k_i·c_i/s.
-                    let f = k[i] + k[l] - k[i] * k[l];
-                    if f != 0.0 {
-                        let v = p[i][l] - f * g * c[l];
-                        p[i][l] = v;
-                        p[l][i] = v;
-                    }
-                }
-            }
+    /// Kalman update with the tilt measurement `z` (rad) of rows `h`, measurement variance `r`
+    /// (rad²) per component: two sequential scalar updates (`δθ_x`, then `δθ_y`), exactly the
+    /// joint update since the two components' noises are independent. With [`YawRow::Frozen`]
+    /// the yaw row gets zero gain (yaw does not move and, Joseph-consistently, its variance is
+    /// unchanged); with [`YawRow::Untracked`] row and column 2 are not touched at all (`H` has
+    /// no yaw column). Returns the state correction δx, or `None`, and the covariance
+    /// unchanged, when an innovation variance is not positive and finite.
+    pub fn update_tilt(
+        &mut self,
+        z: [f32; 2],
+        r: f32,
+        h: &TiltRows,
+        yaw: YawRow,
+    ) -> Option<[f32; N]> {
+        let saved = *self;
+        let dx = match yaw {
+            YawRow::Free => self.update_tracked(z, r, h, true),
+            YawRow::Frozen => self.update_tracked(z, r, h, false),
+            YawRow::Untracked => self.update_untracked(z, r, h),
+        };
+        if dx.is_none() {
+            *self = saved;
         }
         dx
     }
 
-    /// [`Cov6::update_tilt`] with the yaw row untracked (the default configuration's hot path),
-    /// unrolled: two scalar updates, `H = e₀` with innovation `z₀`, then `H = e₁` with `z2`, on
-    /// the tilt and bias rows. The bias rows' gain is scaled by `bias_gain` = β; the Joseph form
-    /// with that gain changes only the bias block, by the factor `2β − β²`.
-    #[inline(always)]
-    fn update_untracked(&mut self, t: &TiltInnovation) -> [f32; N] {
+    /// The tilt update with the yaw row tracked (magnetometer on or yaw-split off), its gain
+    /// `yaw_gain` or zero: one out-of-line, rolled copy, to keep the firmware's flash down;
+    /// the default configuration's update is the inlined `Untracked` one.
+    #[inline(never)]
+    fn update_tracked(
+        &mut self,
+        z: [f32; 2],
+        r: f32,
+        h: &TiltRows,
+        yaw_gain: bool,
+    ) -> Option<[f32; N]> {
         let mut dx = [0.0f32; N];
-        // The bias rows: the state's gain ×β, the covariance's ×(2β − β²); nothing to scale
-        // when β = 1 (most still samples).
-        let b = t.bias_gain;
-        let scaled = b.to_bits() != 1.0f32.to_bits();
-        let bb = if scaled { b * (2.0 - b) } else { 1.0 };
-        unroll!(j in [0, 1] {
-            let first = j == 0;
-            let (z, inv) = if first { (t.z[0], t.s_inv[0]) } else { (t.z2, t.s_inv[1]) };
+        let n = rolled();
+        let free: [bool; N] = core::array::from_fn(|i| i != 2 || yaw_gain);
+        for k in 0..2 {
+            let hk = h.row(k);
             let p = &mut self.m;
-            // c = P e_j, g = c / s; P' = P − g cᵀ (yaw row and column untouched).
+            // c = P hᵀ, s = h c + r, innovation after the corrections so far.
             let mut c = [0.0f32; N];
-            let mut g = [0.0f32; N];
-            // The gain for the state (g·β on the bias rows) and for the covariance (g·(2β − β²)
-            // on the bias block, g elsewhere).
-            let mut gp = [0.0f32; N];
-            unroll!(i in [0, 1, 3, 4, 5] {
-                c[i] = p[i][j];
-                g[i] = c[i] * inv;
-                gp[i] = g[i];
-                if i >= 3 && scaled {
-                    gp[i] = bb * g[i];
-                    g[i] *= b;
+            let (mut s, mut e) = (r, z[k]);
+            for i in 0..n {
+                for l in 0..n {
+                    c[i] += p[i][l] * hk[l];
                 }
+                s += hk[i] * c[i];
+                e -= hk[i] * dx[i];
+            }
+            if !crate::fcmp::in_pos_range(s, f32::MAX) {
+                return None;
+            }
+            let inv = 1.0 / s;
+            // The gain restricted, K' = M·K: zero on a frozen row, and without its bias part's
+            // component along `vertical` (`u`). M is a symmetric projection, so the Joseph form
+            // with K' is P' = P − (c cᵀ − e eᵀ)/s with e = (I − M)·c, the part left out.
+            let u = h.vertical;
+            let cu = c[3] * u[0] + c[4] * u[1] + c[5] * u[2];
+            let kept: [f32; N] = core::array::from_fn(|i| match (free[i], i >= 3) {
+                (false, _) => 0.0,
+                (true, false) => c[i],
+                (true, true) => c[i] - cu * u[i - 3],
+            });
+            for i in 0..n {
+                dx[i] += kept[i] * inv * e;
+                let ei = c[i] - kept[i];
+                for l in i..n {
+                    let v = p[i][l] - (c[i] * c[l] - ei * (c[l] - kept[l])) * inv;
+                    p[i][l] = v;
+                    p[l][i] = v;
+                }
+            }
+        }
+        Some(dx)
+    }
+
+    /// [`Cov6::update_tilt`] with the yaw row untracked (the default configuration's hot path),
+    /// unrolled over the tilt and bias rows: for each component `k`, `c = P hₖᵀ`,
+    /// `s = hₖ c + r`, `δx += c·(zₖ − hₖ δx)/s`, `P ← P − c cᵀ/s`.
+    #[inline(always)]
+    fn update_untracked(&mut self, z: [f32; 2], r: f32, h: &TiltRows) -> Option<[f32; N]> {
+        let mut dx = [0.0f32; N];
+        unroll!(k in [0, 1] {
+            let j = &h.j[k];
+            let p = &mut self.m;
+            let mut c = [0.0f32; N];
+            unroll!(i in [0, 1, 3, 4, 5] {
+                c[i] = h.w * p[i][k] + p[i][3] * j[0] + p[i][4] * j[1] + p[i][5] * j[2];
+            });
+            let s = r + h.w * c[k] + j[0] * c[3] + j[1] * c[4] + j[2] * c[5];
+            if !crate::fcmp::in_pos_range(s, f32::MAX) {
+                return None;
+            }
+            let inv = 1.0 / s;
+            let e = z[k] - h.w * dx[k] - j[0] * dx[3] - j[1] * dx[4] - j[2] * dx[5];
+            let ei = e * inv;
+            // The bias gain without its component along `vertical` (see `update_tracked`).
+            let u = &h.vertical;
+            let cu = c[3] * u[0] + c[4] * u[1] + c[5] * u[2];
+            let cui = cu * cu * inv;
+            unroll!(i in [0, 1, 3, 4, 5] {
+                dx[i] += if i < 3 { c[i] } else { c[i] - cu * u[i - 3] } * ei;
             });
             unroll!(i in [0, 1, 3, 4, 5] {
-                dx[i] = if first { g[i] * z } else { dx[i] + g[i] * z };
-            });
-            unroll!(i in [0, 1, 3, 4, 5] {
+                let g = c[i] * inv;
                 unroll!(l in [0, 1, 3, 4, 5] {
                     if l >= i {
-                        // Rows 0–1 (tilt, and tilt–bias): c_i c_l / s; bias block: ×(2β − β²).
-                        let v = p[i][l] - gp[i] * c[l];
+                        let mut v = p[i][l] - g * c[l];
+                        if i >= 3 {
+                            v += cui * u[i - 3] * u[l - 3];
+                        }
                         p[i][l] = v;
                         p[l][i] = v;
                     }
                 });
             });
         });
-        dx
+        Some(dx)
     }
 
     /// Scalar Kalman update of state `j` (`H = e_j`) with innovation `z` and measurement
@@ -486,60 +491,87 @@ mod tests {
         let p0 = sample_p();
         let r = 1e-4;
         let z = [0.01, -0.02];
-        for frozen_yaw in [false, true] {
-            let mut p = p0;
-            let t = p.tilt_innovation(z, r).unwrap();
-            let mut frozen = [false; 6];
-            frozen[2] = frozen_yaw;
-            let dx = p.update_tilt(&t, if frozen_yaw { YawRow::Frozen } else { YawRow::Free });
-            if frozen_yaw {
-                // Untracked: the same tilt and bias elements and correction, bit for bit;
-                // row/column 2 untouched.
-                let mut p2 = p0;
-                let dx2 = p2.update_tilt(&t, YawRow::Untracked);
-                assert_eq!(dx, dx2);
+        let vert = [0.6, 0.0, 0.8];
+        // A low-passed measurement: part weight on the attitude error, and bias columns.
+        let rows =
+            |vertical| TiltRows { w: 0.7, j: [[-0.8, 0.3, 0.1], [0.2, -0.9, 0.4]], vertical };
+        let hm = [rows(vert).row(0), rows(vert).row(1)];
+        assert_eq!(hm[0], [0.7, 0.0, 0.0, -0.8, 0.3, 0.1]);
+        assert_eq!(hm[1], [0.0, 0.7, 0.0, 0.2, -0.9, 0.4]);
+        // The reference: two scalar updates in dense Joseph form, f64, with the gain's yaw row
+        // zeroed when frozen and its bias part projected off `vertical` (zero: unrestricted).
+        let dense = |frozen: bool, u: [f32; 3]| {
+            let mut pm: [[f64; 6]; 6] = core::array::from_fn(|i| p0.m[i].map(f64::from));
+            let mut dx = [0.0f64; 6];
+            let u = u.map(f64::from);
+            for k in 0..2 {
+                let h = hm[k].map(f64::from);
+                let c: [f64; 6] = core::array::from_fn(|i| (0..6).map(|l| pm[i][l] * h[l]).sum());
+                let s: f64 = (0..6).map(|i| h[i] * c[i]).sum::<f64>() + f64::from(r);
+                let mut g = c.map(|v| v / s);
+                if frozen {
+                    g[2] = 0.0;
+                }
+                let gu = g[3] * u[0] + g[4] * u[1] + g[5] * u[2];
+                for i in 0..3 {
+                    g[3 + i] -= gu * u[i];
+                }
+                let e = f64::from(z[k]) - (0..6).map(|i| h[i] * dx[i]).sum::<f64>();
                 for i in 0..6 {
+                    dx[i] += g[i] * e;
+                }
+                let ikh: [[f64; 6]; 6] = core::array::from_fn(|i| {
+                    core::array::from_fn(|l| f64::from(u8::from(i == l)) - g[i] * h[l])
+                });
+                let mut out = [[0.0f64; 6]; 6];
+                for i in 0..6 {
+                    for l in 0..6 {
+                        let mut v = 0.0;
+                        for a in 0..6 {
+                            for b in 0..6 {
+                                v += ikh[i][a] * pm[a][b] * ikh[l][b];
+                            }
+                        }
+                        out[i][l] = v + f64::from(r) * g[i] * g[l];
+                    }
+                }
+                pm = out;
+            }
+            (dx, pm)
+        };
+        for (frozen_yaw, u) in [(false, [0.0; 3]), (true, [0.0; 3]), (true, vert)] {
+            let mut p = p0;
+            let yaw = if frozen_yaw { YawRow::Frozen } else { YawRow::Free };
+            let dx = p.update_tilt(z, r, &rows(u), yaw).unwrap();
+            if frozen_yaw {
+                // Untracked: the same tilt and bias elements and correction (to rounding: a
+                // different order of sums); row/column 2 untouched, bit for bit.
+                let mut p2 = p0;
+                let dx2 = p2.update_tilt(z, r, &rows(u), YawRow::Untracked).unwrap();
+                for i in 0..6 {
+                    assert!((dx[i] - dx2[i]).abs() <= 1e-6 * dx[i].abs() + 1e-12, "dx {i}");
                     for j in 0..6 {
-                        let want = if i == 2 || j == 2 { p0.m[i][j] } else { p.m[i][j] };
-                        assert_eq!(p2.m[i][j].to_bits(), want.to_bits(), "{i},{j}");
-                    }
-                }
-            }
-            // Dense Joseph form with the restricted gain.
-            let (s00, s01, s11) = (p0.m[0][0] + r, p0.m[0][1], p0.m[1][1] + r);
-            let det = s00 * s11 - s01 * s01;
-            let s_inv = [[s11 / det, -s01 / det], [-s01 / det, s00 / det]];
-            let nis = z[0] * (s_inv[0][0] * z[0] + s_inv[0][1] * z[1])
-                + z[1] * (s_inv[1][0] * z[0] + s_inv[1][1] * z[1]);
-            assert!((t.nis() - nis).abs() < 1e-4 * nis, "{} vs {nis}", t.nis());
-            let mut k = [[0.0f32; 2]; 6];
-            for i in 0..6 {
-                if !frozen[i] {
-                    for c in 0..2 {
-                        k[i][c] = (0..2).map(|m| p0.m[i][m] * s_inv[m][c]).sum();
-                    }
-                }
-            }
-            let dx_joseph: [f32; 6] = core::array::from_fn(|i| k[i][0] * z[0] + k[i][1] * z[1]);
-            for i in 0..6 {
-                assert!((dx[i] - dx_joseph[i]).abs() < 1e-5 * dx_joseph[i].abs() + 1e-9, "dx {i}");
-            }
-            let mut ikh = [[0.0f32; 6]; 6];
-            for i in 0..6 {
-                ikh[i][i] = 1.0;
-                ikh[i][0] -= k[i][0];
-                ikh[i][1] -= k[i][1];
-            }
-            for i in 0..6 {
-                for j in 0..6 {
-                    let mut v = 0.0;
-                    for a in 0..6 {
-                        for b in 0..6 {
-                            v += ikh[i][a] * p0.m[a][b] * ikh[j][b];
+                        if i == 2 || j == 2 {
+                            assert_eq!(p2.m[i][j].to_bits(), p0.m[i][j].to_bits(), "{i},{j}");
+                        } else {
+                            let d = (p2.m[i][j] - p.m[i][j]).abs();
+                            assert!(d <= 1e-6 * p.m[i][j].abs() + 1e-12, "{i},{j}");
                         }
                     }
-                    v += r * (k[i][0] * k[j][0] + k[i][1] * k[j][1]);
-                    assert!((p.m[i][j] - v).abs() < 1e-8, "{i},{j}: {} vs {v}", p.m[i][j]);
+                }
+            }
+            let (want_dx, want_p) = dense(frozen_yaw, u);
+            for i in 0..6 {
+                let got = f64::from(dx[i]);
+                let want = want_dx[i];
+                assert!((got - want).abs() < 1e-5 * want.abs() + 1e-9, "dx {i}: {got} vs {want}");
+                for j in 0..6 {
+                    let got = f64::from(p.m[i][j]);
+                    assert!(
+                        (got - want_p[i][j]).abs() < 1e-8,
+                        "{frozen_yaw} {u:?} {i},{j}: {got} vs {}",
+                        want_p[i][j]
+                    );
                 }
             }
             if frozen_yaw {
@@ -548,8 +580,38 @@ mod tests {
             } else {
                 assert!(dx[2] != 0.0);
             }
+            // No bias correction along the vertical; some without the restriction.
+            let along = dx[3] * vert[0] + dx[4] * vert[1] + dx[5] * vert[2];
+            if u == vert {
+                assert!(along.abs() < 1e-9, "{along}");
+            } else {
+                assert!(along.abs() > 1e-6, "{along}");
+            }
             assert!(p.is_healthy(&[1.0; 6]));
         }
+        // Unrestricted, the two scalar updates are the joint update: K = P Hᵀ (H P Hᵀ + rI)⁻¹.
+        let (dx_seq, _) = dense(false, [0.0; 3]);
+        let pm = |i: usize, j: usize| f64::from(p0.m[i][j]);
+        let hv = |k: usize, i: usize| f64::from(hm[k][i]);
+        let pht: [[f64; 2]; 6] =
+            core::array::from_fn(|i| [0, 1].map(|k| (0..6).map(|l| pm(i, l) * hv(k, l)).sum()));
+        let sm: [[f64; 2]; 2] = [0, 1].map(|a| {
+            [0, 1].map(|b| {
+                (0..6).map(|i| hv(a, i) * pht[i][b]).sum::<f64>()
+                    + if a == b { f64::from(r) } else { 0.0 }
+            })
+        });
+        let det = sm[0][0] * sm[1][1] - sm[0][1] * sm[1][0];
+        let s_inv = [[sm[1][1] / det, -sm[0][1] / det], [-sm[1][0] / det, sm[0][0] / det]];
+        for i in 0..6 {
+            let k: [f64; 2] = [0, 1].map(|c| (0..2).map(|m| pht[i][m] * s_inv[m][c]).sum());
+            let want = k[0] * f64::from(z[0]) + k[1] * f64::from(z[1]);
+            assert!((dx_seq[i] - want).abs() < 1e-9 * (1.0 + want.abs()), "joint dx {i}");
+        }
+        // A measurement whose innovation variance is not positive leaves P alone.
+        let mut p = p0;
+        assert_eq!(p.update_tilt(z, -1.0, &rows(vert), YawRow::Untracked), None);
+        assert_eq!(p, p0);
     }
 
     #[test]

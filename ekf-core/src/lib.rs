@@ -57,6 +57,7 @@ pub mod ssukf;
 mod test_rng;
 #[cfg(test)]
 mod test_text;
+pub mod tilt_lowpass;
 pub mod ukf;
 mod unscented;
 pub mod validate;

@@ -211,24 +211,6 @@ impl Quaternion {
         ]
     }
 
-    /// [`Quaternion::to_rotation_matrix`] without `R[2][0]` and `R[2][1]`, which are left 0:
-    /// the two tilt rows and the third column, all that the EKF's propagation without a yaw
-    /// row and its accelerometer update read (two additions fewer; the rest bit for bit).
-    /// Written out, not built on [`Quaternion::to_rotation_matrix`] or under it: either way
-    /// LLVM's inlining at `opt-level = "s"` added 2.9 KB to the EKF's code (`ekf-min`).
-    pub fn to_rotation_matrix_tilt(self) -> Mat3 {
-        let Quaternion { w, x, y, z } = self;
-        let (xx, yy, zz) = (x * x, y * y, z * z);
-        let (xy, xz, yz) = (x * y, x * z, y * z);
-        let (wx, wy, wz) = (w * x, w * y, w * z);
-        let two = mathf::twice;
-        [
-            [1.0 - two(yy + zz), two(xy - wz), two(xz + wy)],
-            [two(xy + wz), 1.0 - two(xx + zz), two(yz - wx)],
-            [0.0, 0.0, 1.0 - two(xx + yy)],
-        ]
-    }
-
     /// Rotate a body vector into the reference frame: `q ⊗ v ⊗ q*`.
     pub fn rotate(self, v: Vec3) -> Vec3 {
         // v + 2 w (u × v) + 2 u × (u × v), with u the vector part.
@@ -313,19 +295,6 @@ impl Mul for Quaternion {
 
 #[cfg(test)]
 mod tests {
-
-    #[test]
-    fn the_tilt_rotation_matrix_is_the_full_one_without_its_bottom_left_pair() {
-        let q = Quaternion::new(0.8, -0.3, 0.4, 0.33).normalized();
-        let (full, tilt) = (q.to_rotation_matrix(), q.to_rotation_matrix_tilt());
-        for i in 0..3 {
-            for j in 0..3 {
-                let want = if i == 2 && j < 2 { 0.0 } else { full[i][j] };
-                assert_eq!(tilt[i][j].to_bits(), want.to_bits(), "[{i}][{j}]");
-            }
-        }
-        assert!(full[2][0].abs() > 0.1 && full[2][1].abs() > 0.1);
-    }
 
     use super::*;
     use core::f32::consts::FRAC_PI_2;

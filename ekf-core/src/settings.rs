@@ -283,27 +283,19 @@ pub struct EkfSettings {
     /// Gyro-bias standard deviation after initialisation, rad/s. Default 0.2 °/s. Also the rate
     /// agreement a still initialisation window tolerates (`init.rs`).
     pub initial_bias_sigma: f32,
-    /// Longest delay of the accelerometer's low-pass in the estimate's NED frame for motion,
-    /// s (two first-order stages of half this time constant each): reached in strong motion,
-    /// where motion accelerations average out and gravity stays (VQF's idea, Laidig and Seel
-    /// 2023); still, samples are used as they are. Default 1.75 s: hand-held motion and the
-    /// simulated pendulum against RepoIMU (`docs/filter.md`, sessions 9 and 10). 0: raw samples
-    /// always.
+    /// Time constant (delay) of the accelerometer's low-pass in the estimate's NED frame, s: a
+    /// second-order Butterworth filter of natural frequency √2/τ (VQF's), fixed whatever the
+    /// motion. Motion accelerations average out in that almost-inertial frame (their mean is a
+    /// change of velocity over this time) while gravity stays (VQF's idea, Laidig and Seel
+    /// 2023). Default 2.5 s (VQF's `tauAcc` is 3 s; chosen on the BROAD development set and
+    /// RepoIMU 02a, `docs/filter.md`). 0: raw samples.
     pub accel_time_constant: f32,
-    /// Longest delay of the low-pass for vibration, s: the part of the motion level that
-    /// changes from one sample to the next (`docs/filter.md`). Default 1.5 s.
-    pub vib_time_constant: f32,
-    /// Rotation rate at which the vibration's delay is halved, rad/s: the delay falls as
-    /// `1 / (1 + (|ω| / this)²)`, |ω| the largest axis rate, since the gyro's scale-factor and
-    /// misalignment errors (2 % and 1 % on the iNEMO's gyros) grow over it in a turn.
-    /// Default 15 °/s.
-    pub vib_rate: f32,
-    /// Motion level at which the motion weight is ½, g² (mean squared deviation of the
-    /// specific force from its low-pass): the low-pass runs at half its longest time constant.
-    /// Default 1e−3 g² ((0.032 g)², 400× the accelerometer's noise variance).
-    pub motion_scale: f32,
-    /// Time constant of the motion level's average, s. Default 1 s.
-    pub motion_time_constant: f32,
+    /// The gyro's rate error proportional to the rate (scale factor and axis misalignment),
+    /// dimensionless: it adds `(k·|ω|)²·τ` rad²/s to the attitude's process noise, τ the
+    /// low-pass's time constant, so that what a fast turn builds up over the low-pass's delay
+    /// is taken for attitude error, not for gyro bias. Default 0.02 (the iNEMO's gyros: 2 %
+    /// sensitivity tolerance, 1 % cross-axis).
+    pub gyro_scale_error: f32,
 }
 
 impl Default for EkfSettings {
@@ -316,11 +308,8 @@ impl Default for EkfSettings {
             initial_tilt_sigma: deg(2.0),
             initial_yaw_sigma: deg(5.0),
             initial_bias_sigma: deg(0.2),
-            accel_time_constant: 1.75,
-            vib_time_constant: 1.5,
-            vib_rate: deg(15.0),
-            motion_scale: 1e-3,
-            motion_time_constant: 1.0,
+            accel_time_constant: 2.5,
+            gyro_scale_error: 0.02,
         }
     }
 }

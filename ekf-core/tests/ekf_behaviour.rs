@@ -26,13 +26,14 @@ fn initialisation_window_gives_tilt_yaw_and_bias() {
     for (k, smp) in run.samples.iter().enumerate() {
         let flags = f.update(smp);
         if done_at.is_none() && !flags.contains(Flags::INITIALISING) {
-            done_at = Some(k);
+            done_at = Some((k, f.euler()));
         }
     }
-    // 10 s window at 50 Hz.
-    let k = done_at.expect("initialised");
+    // 10 s window at 50 Hz; the attitude as the window ends (afterwards the board's noisy
+    // x/y gyros walk it by about 0.1° in 2 s, which the low-passed accelerometer corrects
+    // over its 3 s).
+    let (k, e) = done_at.expect("initialised");
     assert!((499..=501).contains(&k), "{k}");
-    let e = f.euler();
     assert!((to_deg(e.roll) - 4.0).abs() < 0.05 && (to_deg(e.pitch) + 7.0).abs() < 0.05, "{e:?}");
     assert!((to_deg(e.yaw) - 123.0).abs() < 0.05, "{e:?}");
     // Bias from the window: 500 samples of the board's gyro noise.
@@ -72,44 +73,36 @@ fn converges_from_a_30_degree_tilt_error() {
     assert!(err < 0.2, "tilt error after 30 s: {err}°");
 }
 
+/// The control, yaw-split off, is `ekf::tests::without_yaw_split_a_correlated_yaw_moves`: with
+/// a yaw error correlated to the tilt error the tilt update moves the heading.
 #[test]
-fn yaw_split_keeps_yaw_while_tilt_converges_and_without_it_yaw_moves() {
+fn yaw_split_keeps_yaw_while_tilt_converges() {
     // Pitched 40° so that tilt corrections about NED axes would move Z-Y-X yaw.
     let truth = Euler::new(deg(10.0), deg(40.0), deg(-30.0)).to_quaternion();
     let run = simulate(truth, 10.0, 50.0, Sensors::perfect(), 4, still);
     let wrong = Euler::new(deg(20.0), deg(25.0), deg(-30.0)).to_quaternion();
-    for split in [true, false] {
-        let mut s = Settings::default();
-        s.ekf.yaw_split = split;
-        s.rest.enabled = false;
-        // Bias known and constant: yaw can then only move through the corrections.
-        s.ekf.initial_bias_sigma = 1e-9;
-        s.ekf.bias_random_walk = 0.0;
-        let mut f = started(s, wrong, Vec3::ZERO);
-        // The largest heading change of one update: with perfect, still sensors the gyro turns
-        // nothing, so each update's change is its tilt correction's.
-        let mut step_max = 0.0f32;
-        for smp in &run.samples {
-            let before = f.attitude();
-            f.update(smp);
-            step_max = step_max.max(ekf_core::ekf::heading_change(before, f.attitude()).abs());
-        }
-        assert!(to_deg(tilt_error(f.attitude(), truth)) < 0.05);
-        // The heading change: the rotation about NED z from the start to the end.
-        let yaw_moved = to_deg(ekf_core::ekf::heading_change(wrong, f.attitude()));
-        if split {
-            // Each correction is a rotation about a horizontal NED axis, which has no twist
-            // about NED z (to float rounding).
-            assert!(to_deg(step_max) < 1e-4, "one update moved the heading {}°", to_deg(step_max));
-            // Rotations about horizontal axes do not commute: along a path that is not a great
-            // circle they add up to a twist of second order in the 18° corrected (0.022° here,
-            // against 9.8° without yaw-split).
-            assert!(yaw_moved.abs() < 0.05, "heading moved {yaw_moved}° with yaw-split");
-        } else {
-            assert!(to_deg(step_max) > 0.01, "no update moved the heading without yaw-split");
-            assert!(yaw_moved.abs() > 1.0, "heading moved only {yaw_moved}° without yaw-split");
-        }
+    let mut s = Settings::default();
+    s.rest.enabled = false;
+    // Bias known and constant: yaw can then only move through the corrections.
+    s.ekf.initial_bias_sigma = 1e-9;
+    s.ekf.bias_random_walk = 0.0;
+    let mut f = started(s, wrong, Vec3::ZERO);
+    // The largest heading change of one update: with perfect, still sensors the gyro turns
+    // nothing, so each update's change is its tilt correction's.
+    let mut step_max = 0.0f32;
+    for smp in &run.samples {
+        let before = f.attitude();
+        f.update(smp);
+        step_max = step_max.max(ekf_core::ekf::heading_change(before, f.attitude()).abs());
     }
+    assert!(to_deg(tilt_error(f.attitude(), truth)) < 0.05);
+    // Each correction is a rotation about a horizontal NED axis, which has no twist about
+    // NED z (to float rounding).
+    assert!(to_deg(step_max) < 1e-4, "one update moved the heading {}°", to_deg(step_max));
+    // Rotations about horizontal axes do not commute: along a path that is not a great circle
+    // they add up to a twist of second order in the 18° corrected.
+    let yaw_moved = to_deg(ekf_core::ekf::heading_change(wrong, f.attitude()));
+    assert!(yaw_moved.abs() < 0.05, "heading moved {yaw_moved}° with yaw-split");
 }
 
 #[test]
@@ -146,7 +139,7 @@ fn gate_skips_extra_acceleration_and_resumes_after() {
     assert!(gated_err < 0.8, "tilt error {gated_err}°");
 
     // Without the gate the same acceleration tilts the estimate by degrees
-    // (atan(0.06/0.92) = 3.7° if fully believed).
+    // (atan(0.06/0.92) = 3.7° if fully believed); the gate keeps it below 0.8°.
     let mut s = Settings::default();
     s.gate.norm_tolerance = 10.0;
     s.gate.jump_g = 10.0;
@@ -157,7 +150,8 @@ fn gate_skips_extra_acceleration_and_resumes_after() {
         f.update(smp);
         max_err = max_err.max(tilt_error(f.attitude(), run.truth[k]));
     }
-    assert!(to_deg(max_err) > 2.0 && to_deg(max_err) > 4.0 * gated_err, "{}°", to_deg(max_err));
+    // Low-passed over its 3 s, the 3 s push reaches the tilt as more than half of it.
+    assert!(to_deg(max_err) > 2.0, "{}°", to_deg(max_err));
 }
 
 #[test]
@@ -178,20 +172,18 @@ fn knocks_that_keep_the_norm_near_1g_do_not_throw_tilt_off() {
     let largest = |samples: &[ImuSample]| {
         let mut f = started(Settings::default(), truth, Sensors::board().gyro_bias);
         let mut max_err: f32 = 0.0;
-        let mut knocks = 0;
         for (k, s) in samples.iter().enumerate() {
-            let flags = f.update(s);
-            knocks += flags.contains(Flags::ACCEL_KNOCK) as u32;
+            f.update(s);
             max_err = max_err.max(tilt_error(f.attitude(), run.truth[k]));
         }
-        (to_deg(max_err), knocks)
+        to_deg(max_err)
     };
-    let (with, knocks) = largest(&samples);
-    let (without, _) = largest(&run.samples);
-    assert!(knocks >= 9 * 2, "{knocks}");
-    // A knock that reached the state would add its 14° direction at the tilt gain; rejected,
-    // the knocks cost only the two samples' gyro-only propagation.
-    assert!(with < without + 0.02, "tilt error {with}° with the knocks, {without}° without");
+    let (with, without) = (largest(&samples), largest(&run.samples));
+    // Each knock enters the low-pass like every sample, but two samples of ±0.2 g weigh
+    // 0.02 s in its 3 s: 0.05 g · 0.02 s / 3 s ≈ 0.02° of tilt at most, where the sample
+    // itself points 14° off.
+    // Nine of them 2 s apart overlap in the low-pass's memory: 0.03° at most.
+    assert!(with < without + 0.05, "tilt error {with}° with the knocks, {without}° without");
 }
 
 #[test]

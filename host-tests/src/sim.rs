@@ -14,8 +14,11 @@
 //! - optional magnetometer (off by default): `Rᵀ m + e_m`, with `m` from
 //!   `ekf_core::settings::MagSettings::default()` (25.6 µT, dip −65°, declination −25.5°) and
 //!   0.5 µT (5 mgauss) white noise per axis;
-//! - sensors are sampled instantaneously at `t_k = k / f`, `k = 0 .. round(duration · f)`
-//!   (the last sample is just before `duration`).
+//! - sensors are sampled at `t_k = k / f`, `k = 0 .. round(duration · f)` (the last sample is
+//!   just before `duration`): the accelerometer instantaneously, the gyro as the mean body
+//!   rate over the period `(t_k − 1/f, t_k]`, which is what the firmware reads (it averages
+//!   the ADC's frames over each filter period; digital IMUs average over their output period
+//!   alike). `SimSample::omega` is the instantaneous rate.
 //!
 //! Noise draws come from [`crate::rng::Rng`], one stream per sensor derived from the seed, so
 //! a trace depends only on (scenario, rate, duration, seed) and changing one sensor's noise
@@ -989,6 +992,41 @@ impl Simulator {
         [rates[0].eval(t).0, rates[1].eval(t).0, rates[2].eval(t).0]
     }
 
+    /// True body rate at `t`, rad/s, without moving the body-rate integrator.
+    fn rate_at(&self, t: f64) -> V3 {
+        let euler = |p: &[Profile; 3]| {
+            let (a, b, c) = (p[0].eval(t), p[1].eval(t), p[2].eval(t));
+            euler_rates_to_body([a.0, b.0, c.0], [a.1, b.1, c.1], [a.2, b.2, c.2]).0
+        };
+        match self.traj.attitude {
+            Attitude::Euler(p) => euler(&p),
+            Attitude::Mounted { vehicle: p, mount } => rotate_inverse(mount, euler(&p)),
+            Attitude::AboutAxis { axis, angle, q0 } => {
+                rotate_inverse(q0, axis).map(|c| c * angle.eval(t).1)
+            }
+            Attitude::BodyRates { rates, .. } => Self::rates(&rates, t),
+        }
+    }
+
+    /// The gyro's reading of the trajectory: the mean body rate over the sample period that
+    /// ends at `t`, rad/s, as the firmware averages the ADC's frames over each filter period
+    /// (Simpson's rule on 4 panels; the period's start is clamped at 0).
+    fn mean_rate(&self, t: f64) -> V3 {
+        let t0 = (t - 1.0 / self.cfg.rate_hz).max(0.0);
+        if t <= t0 {
+            return self.rate_at(t);
+        }
+        let h = (t - t0) / 4.0;
+        let mut sum = [0.0; 3];
+        for (i, w) in [1.0, 4.0, 2.0, 4.0, 1.0].into_iter().enumerate() {
+            let r = self.rate_at(t0 + i as f64 * h);
+            for c in 0..3 {
+                sum[c] += w * r[c] / 12.0;
+            }
+        }
+        sum
+    }
+
     /// Truth at `t`: attitude, ω, ω̇. Body-rate trajectories integrate forward from the last
     /// call (calls must come in increasing time).
     /// The magnetometer's reading at attitude `q` (the field in body axes plus its noise), when
@@ -1082,9 +1120,10 @@ impl Iterator for Simulator {
         let accel_body = self.traj.accel_at(q, t);
         let accel_clean = s.accel_clean(q, omega, omega_dot, accel_body);
 
+        let mean = self.mean_rate(t);
         let mut gyro = [0f32; 3];
         for i in 0..3 {
-            let v = omega[i] + s.gyro_bias[i] + self.gyro_std[i] * self.gyro_rng.normal();
+            let v = mean[i] + s.gyro_bias[i] + self.gyro_std[i] * self.gyro_rng.normal();
             gyro[i] = v as f32;
         }
         let mut accel = [0f32; 3];
@@ -1130,7 +1169,7 @@ impl Simulator {
         let p = r.p;
         let (vib_a, vib_w) = r.vibration(t_s, s.gravity);
 
-        let w_in = add(omega, vib_w);
+        let w_in = add(self.mean_rate(t_s), vib_w);
         let mut gyro = [0f32; 3];
         let fs_w = p.gyro_full_scale_dps * DEG;
         for (i, m) in r.gyro_m.iter().enumerate() {

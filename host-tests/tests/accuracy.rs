@@ -21,6 +21,21 @@ const SEED: u64 = 1;
 // make a seed-1 value miss, assert the measured value plus a small margin here, with a comment
 // pointing to docs/accuracy.md, rather than loosening the goal.)
 
+/// The goals the EKF misses on seed 1 since issue #26's fixed low-pass, with the bound asserted
+/// instead (the measured value and about 15 %): the thesis's tilt figures come from a simulation
+/// without linear acceleration, where the raw accelerometer is exact; the low-pass's 2.5 s
+/// delay, with the board's noisy x/y gyros (0.58 °/s per sample), leaves the gyro's walk over
+/// it, √(3/4·τ·psd) ≈ 0.1° per axis, in the tilt. `docs/accuracy.md`, "Misses".
+const MISSED: [(&str, f64); 7] = [
+    ("1 (pitch)", 0.16),
+    ("2 roll", 0.18),
+    ("2 pitch", 0.16),
+    ("3 (pitch)", 0.18),
+    ("4 (pitch)", 0.17),
+    ("5 roll", 0.18),
+    ("5 pitch", 0.16),
+];
+
 fn check(scenarios: &[Scenario]) {
     let mut failures = Vec::new();
     for &s in scenarios {
@@ -38,10 +53,16 @@ fn check(scenarios: &[Scenario]) {
         );
         for g in GOALS.iter().filter(|g| g.scenario == s) {
             let v = g.metric.of(&r);
-            eprintln!("  {}: {} = {v:.4}, goal ≤ {}", g.label, g.metric.describe(), g.max);
+            let max = MISSED.iter().find(|m| m.0 == g.label).map_or(g.max, |m| m.1);
+            eprintln!(
+                "  {}: {} = {v:.4}, goal ≤ {}, asserted ≤ {max}",
+                g.label,
+                g.metric.describe(),
+                g.max
+            );
             // Also a failure when `v` is NaN.
-            if v.is_nan() || v > g.max {
-                failures.push(format!("{}: {} = {v:.4} > {}", g.label, g.metric.describe(), g.max));
+            if v.is_nan() || v > max {
+                failures.push(format!("{}: {} = {v:.4} > {max}", g.label, g.metric.describe()));
             }
         }
     }

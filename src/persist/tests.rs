@@ -230,16 +230,16 @@ impl Flash for Odd {
     }
 }
 
-/// The current record is 574 bytes (`record_size_of_the_current_registry`): a page of
+/// The current record is 554 bytes (`record_size_of_the_current_registry`): a page of
 /// exactly that size takes it, a page two bytes smaller is refused as too small before
 /// anything is written.
 #[test]
 fn a_record_larger_than_the_page_is_refused_before_any_write() {
     let s = variant(5);
-    let mut f = Odd { inner: SimFlash::new(), size: 574, deaf: false };
+    let mut f = Odd { inner: SimFlash::new(), size: 554, deaf: false };
     assert_eq!(save(&mut f, &s), Ok(Saved { page: Page::A, seq: 1 }));
     assert_eq!(load(&f).settings, s);
-    let mut f = Odd { inner: SimFlash::new(), size: 572, deaf: false };
+    let mut f = Odd { inner: SimFlash::new(), size: 552, deaf: false };
     assert_eq!(save(&mut f, &s), Err(SaveError::TooLarge));
     assert_eq!(f.inner.steps, 0);
 }
@@ -276,12 +276,13 @@ fn record_without(settings: &PipelineSettings, missing: &[u16], page: Page, seq:
 }
 
 /// A record saved by the firmware before the motion-adaptive EKF settings (ids 14, 67, 68,
-/// 69; format version 1 then as now): every other setting's entry, with that firmware's
-/// defaults — the source's gate, 1 ± 0.05 g and χ² 16. It loads in full, the new settings
-/// keep their defaults (counted as missing), and the saved gate stays what was saved.
+/// 69; format version 1 then as now): every setting's entry it had, with that firmware's
+/// defaults — the source's gate, 1 ± 0.05 g and χ² 16. It loads in full, the settings it
+/// lacks keep their defaults (counted as missing: 14, 67 and 57, `ekf.gyro_scale_error`; 68
+/// and 69 are retired), and the saved gate stays what was saved.
 #[test]
 fn a_record_from_before_the_new_ekf_settings_loads_with_their_defaults() {
-    const NEW: [u16; 4] = [14, 67, 68, 69];
+    const NEW: [u16; 3] = [14, 67, 57];
     let mut old = PipelineSettings::default();
     old.filter.gate = ekf_core::settings::GateSettings::SOURCE;
     old.depth.water_density_kg_m3 = 998.0;
@@ -295,8 +296,64 @@ fn a_record_from_before_the_new_ekf_settings_loads_with_their_defaults() {
     let d = PipelineSettings::default();
     assert_eq!(l.settings.filter.init.moving_bias_sigma, d.filter.init.moving_bias_sigma);
     assert_eq!(l.settings.filter.ekf.accel_time_constant, d.filter.ekf.accel_time_constant);
-    assert_eq!(l.settings.filter.ekf.motion_scale, d.filter.ekf.motion_scale);
-    assert_eq!(l.settings.filter.ekf.motion_time_constant, d.filter.ekf.motion_time_constant);
+    assert_eq!(l.settings.filter.ekf.gyro_scale_error, d.filter.ekf.gyro_scale_error);
+}
+
+/// The settings the fixed low-pass retired, with their flash ids and the values their
+/// firmware saved by default (internal units: s, rad/s, g², s). The ids are never reused.
+const RETIRED: [(u16, &str, f32); 4] = [
+    (58, "ekf.vib_time_constant", 1.5),
+    (59, "ekf.vib_rate", 0.261_799_4), // 15 °/s
+    (68, "ekf.motion_scale", 1e-3),
+    (69, "ekf.motion_time_constant", 1.0),
+];
+
+/// A record saved by the firmware before the fixed low-pass (format version 1 then as now):
+/// every setting's entry but `ekf.gyro_scale_error` (id 57), its own
+/// `ekf.accel_time_constant` (1.75 s), and the entries of the four settings it had that are
+/// now retired. Those four are skipped, and only those (an id that were reused, or a load
+/// that took an unknown id, would change the count or the settings); every other setting is
+/// kept as saved, `ekf.gyro_scale_error` at its default (the one missing).
+#[test]
+fn a_record_with_the_retired_ekf_settings_skips_exactly_them() {
+    for (id, name, _) in RETIRED {
+        assert!(crate::registry::by_id(id).is_none(), "retired id {id} ({name}) reused");
+        assert!(find(name).is_none(), "{name} is back");
+    }
+    let mut old = variant(8);
+    old.filter.ekf.accel_time_constant = 1.75;
+    old.filter.ekf.bias_random_walk *= 2.0;
+    let mut entries: Vec<(u16, Vec<u8>)> = crate::registry::SETTINGS
+        .iter()
+        .filter(|s| s.id != 57)
+        .map(|s| {
+            let mut buf = [0u8; 12];
+            let n = s.encode(&s.get(&old), &mut buf);
+            (s.id, buf[..n].to_vec())
+        })
+        .collect();
+    // That firmware wrote its entries in its table's order: each retired one after its
+    // neighbours of then (58 and 59 after 67, 68 and 69 after them).
+    let at = entries.iter().position(|(id, _)| *id == 67).unwrap() + 1;
+    for (k, (id, _, v)) in RETIRED.iter().enumerate() {
+        entries.insert(at + k, (*id, v.to_le_bytes().to_vec()));
+    }
+    let entries: Vec<(u16, &[u8])> = entries.iter().map(|(id, v)| (*id, v.as_slice())).collect();
+    let mut f = SimFlash::new();
+    write_raw(&mut f, Page::B, 12, FORMAT_VERSION, &entries);
+    let l = load(&f);
+    assert_eq!(l.source, Source::Flash { page: Page::B, seq: 12 });
+    assert_eq!((l.skipped, l.missing), (RETIRED.len() as u16, 1));
+    assert_eq!(l.settings, old);
+    assert_eq!(l.settings.filter.ekf.accel_time_constant, 1.75);
+    assert_eq!(
+        l.settings.filter.ekf.gyro_scale_error,
+        PipelineSettings::default().filter.ekf.gyro_scale_error
+    );
+    // The next save writes no retired id: the record loads with nothing skipped or missing.
+    save(&mut f, &l.settings).unwrap();
+    let again = load(&f);
+    assert_eq!((again.settings, again.skipped, again.missing), (old, 0, 0));
 }
 
 /// The heart of the matter: a power cut after every single write step of a save, clean or
@@ -521,8 +578,8 @@ fn print_record_size() {
 #[test]
 fn record_size_of_the_current_registry() {
     let (len, count) = payload_size(&PipelineSettings::default());
-    assert_eq!((count, len), (77, 558));
-    assert_eq!(HEADER_LEN + padded(len) + CRC_LEN, 574);
+    assert_eq!((count, len), (74, 537));
+    assert_eq!(HEADER_LEN + padded(len) + CRC_LEN, 554);
 }
 
 /// The marine output settings (ids 114–119) are saved and loaded like the others.

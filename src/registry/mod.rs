@@ -485,7 +485,8 @@ impl Setting {
     }
 
     /// The documentation row of this setting in `docs/commands.md`:
-    /// `| name | type | unit | min | max | default | description |`.
+    /// `| name | type | unit | min | max | default | description |`, a `|` of the description
+    /// escaped (`\|`) so that it does not split the cell.
     pub fn doc_row(&self, out: &mut impl core::fmt::Write) -> core::fmt::Result {
         let mut default = Sentence::new();
         let _ = self.write_value(&self.get(&PipelineSettings::default()), &mut default);
@@ -503,15 +504,21 @@ impl Setting {
         };
         write!(
             out,
-            "| `{}` | {} | {} | {} | {} | `{}` | {} |",
+            "| `{}` | {} | {} | {} | {} | `{}` | ",
             self.name,
             self.kind.name(),
             self.unit(),
             ascii(&lo, nl),
             ascii(&hi, nh),
             default.body(),
-            self.help()
-        )
+        )?;
+        for (i, part) in self.help().split('|').enumerate() {
+            if i > 0 {
+                out.write_str("\\|")?;
+            }
+            out.write_str(part)?;
+        }
+        out.write_str(" |")
     }
 }
 

@@ -260,7 +260,7 @@ settings_table! {
         1.0,
         0.001,
         16.0,
-        "knock: skip when the accelerometer moves more between two samples (the EKF adds 3 standard deviations of the motion level, in quadrature)",
+        "knock: skip when the accelerometer moves more between two samples (the EKF window and the complementary filter)",
         |s| s.filter.gate.jump_g
     ),
     num!(
@@ -527,49 +527,22 @@ settings_table! {
         1.0,
         0.0,
         60.0,
-        "delay of the accelerometer low-pass in NED (2 stages, strong motion); 0: raw samples",
+        "delay of the accelerometer low-pass in NED (2nd-order Butterworth, fixed); 0: raw samples",
         |s| s.filter.ekf.accel_time_constant
     ),
     // The ekf section's tens (60–69) are full: its later settings take the free ids below.
+    // Retired ids, never to be reused (records of older firmware hold them; `load` skips
+    // them): 58 `ekf.vib_time_constant`, 59 `ekf.vib_rate`, 68 `ekf.motion_scale`,
+    // 69 `ekf.motion_time_constant`.
     num!(
-        58,
-        "ekf.vib_time_constant",
-        "s",
+        57,
+        "ekf.gyro_scale_error",
+        "",
         1.0,
         0.0,
-        60.0,
-        "delay of the low-pass for vibration (the norm's sample-to-sample change)",
-        |s| s.filter.ekf.vib_time_constant
-    ),
-    num!(
-        59,
-        "ekf.vib_rate",
-        "deg/s",
-        DEG,
-        0.01,
-        10000.0,
-        "largest axis rate at which the vibration's delay is halved",
-        |s| s.filter.ekf.vib_rate
-    ),
-    num!(
-        68,
-        "ekf.motion_scale",
-        "g2",
-        1.0,
-        1e-7,
-        10.0,
-        "motion level at which the low-pass runs at half `ekf.accel_time_constant`",
-        |s| s.filter.ekf.motion_scale
-    ),
-    num!(
-        69,
-        "ekf.motion_time_constant",
-        "s",
-        1.0,
-        0.01,
-        60.0,
-        "averaging time of the motion level",
-        |s| s.filter.ekf.motion_time_constant
+        0.5,
+        "gyro rate error proportional to the rate (scale factor, misalignment): attitude process noise (k·|ω|)²·τ",
+        |s| s.filter.ekf.gyro_scale_error
     ),
     // Sensor conditioning.
     axes!(70, "axes.gyro", "gyro axes (LPR430AL X, Y, LY330ALH Z outputs) to body FRD", |s| s

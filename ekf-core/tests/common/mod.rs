@@ -72,13 +72,16 @@ pub fn simulate(
     let mut samples = Vec::with_capacity(n);
     let mut truth = Vec::with_capacity(n);
     for _ in 0..n {
-        // Integrate truth over the sample interval (midpoint rule on the sub-steps).
+        // Integrate truth over the sample interval (midpoint rule on the sub-steps); the gyro
+        // reads the mean rate over the interval, as the firmware's averaged ADC frames do.
+        let mut w = Vec3::ZERO;
         for k in 0..sub {
-            let (w, _) = motion(t + (k as f32 + 0.5) * h);
-            q = (q * Quaternion::from_rotation_vector(w * h)).normalized();
+            let (wk, _) = motion(t + (k as f32 + 0.5) * h);
+            q = (q * Quaternion::from_rotation_vector(wk * h)).normalized();
+            w += wk * (1.0 / sub as f32);
         }
         t += dt;
-        let (w, a_ned) = motion(t);
+        let (_, a_ned) = motion(t);
         let f_ned = a_ned - Vec3::new(0.0, 0.0, GRAVITY);
         let f_body = q.rotate_inverse(f_ned);
         samples.push(ImuSample::new(
