@@ -99,7 +99,8 @@ pub struct Pipeline {
     heading_ref: HeadingRef,
     /// Status bits of every cycle since the last output.
     interval_status: Status,
-    /// Yaw at the last output (rad) and the time since, s: the rate of turn.
+    /// Yaw at the last output (rad; `None`: the rate of turn starts again at the next output)
+    /// and the time since, s: the rate of turn.
     rot_yaw: Option<f32>,
     rot_time_s: f32,
 }
@@ -123,6 +124,16 @@ impl Pipeline {
     /// What the heading is referenced to.
     pub fn heading_ref(&self) -> HeadingRef {
         self.heading_ref
+    }
+
+    /// Reference the heading to `r`. A change of reference moves the heading without a turn
+    /// (the magnetometer taking over pulls it to magnetic north), so the rate of turn starts
+    /// again: the next output's `ROT` is empty and invalid.
+    fn reference_heading(&mut self, r: HeadingRef) {
+        if r != self.heading_ref {
+            self.heading_ref = r;
+            self.rot_yaw = None;
+        }
     }
 
     /// The operator's true heading (`YAW`), rad: the estimator's yaw becomes `yaw` and the
@@ -218,10 +229,10 @@ impl Pipeline {
         status.insert(Status::from_flags(flags));
         let mag_on = self.settings.filter.mag.enabled;
         if mag_on && flags.contains(Flags::MAG_USED) {
-            self.heading_ref = HeadingRef::Magnetic;
+            self.reference_heading(HeadingRef::Magnetic);
         } else if !mag_on && self.heading_ref == HeadingRef::Magnetic {
             // The gyros carry the referenced heading on, as after `YAW`.
-            self.heading_ref = HeadingRef::True;
+            self.reference_heading(HeadingRef::True);
         }
         self.interval_status |= status;
         if inputs.dt.is_finite() && inputs.dt > 0.0 {
@@ -327,7 +338,7 @@ impl Pipeline {
                 ekf.set_attitude(self.ekf.attitude(), self.ekf.gyro_bias() - shift);
             } else {
                 // The window starts again from `init.yaw0`.
-                self.heading_ref = HeadingRef::Relative;
+                self.reference_heading(HeadingRef::Relative);
             }
             self.ekf = ekf;
         }
@@ -703,6 +714,60 @@ mod tests {
         }
         assert_eq!(p.heading_ref(), HeadingRef::True);
         assert!(with_prefix(&b, "HCHDT,").is_some() && with_prefix(&b, "HCHDM").is_none());
+    }
+
+    /// The rate of turn starts again at every change of the heading's reference (issue #28):
+    /// the magnetometer taking over moves a relative heading of 0° to 334.5° true, and letting
+    /// go, `YAW` and a restart (`RAW,2`) move it too, none of them a turn. The first output
+    /// after each has an empty, invalid `ROT`; before, the take-over printed
+    /// `$HCROT,-11252.8,A` here. (The magnetometer's pull over the next outputs still shows:
+    /// −3,185 and −381 °/min on the next two.)
+    #[test]
+    fn the_rate_of_turn_restarts_when_the_heading_reference_changes() {
+        let mut s = all_on();
+        s.filter.init.window_s = 0.0;
+        let mut p = Pipeline::new(s);
+        let m = s.filter.mag;
+        let ned = Vec3::new(m.field_ut * m.dip.cos(), 0.0, m.field_ut * m.dip.sin());
+        let field = Some(board::MAG_AXES.inverse().apply(ned).to_array());
+        // The ROT bodies of `n` steps, and whether each step changed the reference.
+        let run = |p: &mut Pipeline, n: usize, mag: bool| {
+            let mut rots = Vec::new();
+            for _ in 0..n {
+                let before = p.heading_ref();
+                let inputs = Inputs { mag_ut: field.filter(|_| mag), ..still([0.0; 3]) };
+                let step = p.step(&inputs);
+                let changed = p.heading_ref() != before;
+                if let Some(r) = with_prefix(&bodies(&step), "HCROT,") {
+                    rots.push((r.to_string(), changed));
+                }
+            }
+            rots
+        };
+        let steady = run(&mut p, 50, false);
+        assert!(steady.iter().skip(1).all(|(r, _)| r.ends_with(",A")), "{steady:?}");
+        // The magnetometer takes over.
+        let mut on = *p.settings();
+        on.filter.mag.enabled = true;
+        p.apply_settings(on);
+        let rots = run(&mut p, 50, true);
+        assert_eq!(p.heading_ref(), HeadingRef::Magnetic);
+        assert_eq!(rots.first().map(|r| r.0.as_str()), Some("HCROT,,V"), "{rots:?}");
+        // It lets go: the gyros carry the true heading on.
+        let mut off = *p.settings();
+        off.filter.mag.enabled = false;
+        p.apply_settings(off);
+        let rots = run(&mut p, 50, false);
+        assert_eq!(p.heading_ref(), HeadingRef::True);
+        assert_eq!(rots.first().map(|r| r.0.as_str()), Some("HCROT,,V"), "{rots:?}");
+        assert!(rots.iter().skip(1).all(|(r, _)| r.ends_with(",A")), "{rots:?}");
+        // `YAW` and a restart.
+        p.set_yaw(deg(120.0));
+        let rots = run(&mut p, 50, false);
+        assert_eq!(rots.first().map(|r| r.0.as_str()), Some("HCROT,,V"), "{rots:?}");
+        p.restart();
+        let rots = run(&mut p, 50, false);
+        assert_eq!(rots.first().map(|r| r.0.as_str()), Some("HCROT,,V"), "{rots:?}");
     }
 
     /// The longest output (every sentence at its widest) and the highest output rate at which

@@ -49,7 +49,7 @@ enum Cmd {
         /// Serial port (e.g. /dev/ttyUSB0, or the emulator's pty).
         port: String,
         /// Stop after this many seconds (default: until interrupted).
-        #[arg(long)]
+        #[arg(long, value_parser = seconds_arg)]
         seconds: Option<f64>,
     },
     /// Send one command (`VER`, `GET gate.jump`, `SET,gate.jump,0.08`) and print the reply.
@@ -62,10 +62,10 @@ enum Cmd {
         #[arg(required = true, num_args = 1.., allow_negative_numbers = true)]
         command: Vec<String>,
         /// How long to wait for the reply, s.
-        #[arg(long, default_value_t = 2.0)]
+        #[arg(long, default_value_t = 2.0, value_parser = seconds_arg)]
         timeout: f64,
         /// Also wait for the late reply of `GBIAS` / `ACAL,<position>` (up to this many s).
-        #[arg(long)]
+        #[arg(long, value_parser = seconds_arg)]
         wait_late: Option<f64>,
     },
     /// Log raw mode (`$PINAW` / `$PINAX`) into a trace CSV (`host-tests replay` reads it);
@@ -77,7 +77,7 @@ enum Cmd {
         #[arg(long)]
         out: PathBuf,
         /// Stop after this many seconds (default: until Ctrl-C).
-        #[arg(long)]
+        #[arg(long, value_parser = seconds_arg)]
         seconds: Option<f64>,
         /// Restart the device's estimator at the first row (`RAW,2`): a replay of the log
         /// from its first row, with the settings of its header, then reproduces the device's
@@ -100,7 +100,7 @@ enum Cmd {
         /// Serial port.
         port: String,
         /// Averaging time per position, s (0.5–60).
-        #[arg(long, default_value_t = 2.0)]
+        #[arg(long, default_value_t = 2.0, value_parser = acal_seconds_arg)]
         seconds: f64,
     },
     /// Forward the device's sentences to UDP (OpenCPN, Signal K, a ROV station) and/or to the
@@ -117,7 +117,7 @@ enum Cmd {
         #[arg(long)]
         tcp: Option<String>,
         /// Stop after this many seconds (default: until interrupted).
-        #[arg(long)]
+        #[arg(long, value_parser = seconds_arg)]
         seconds: Option<f64>,
     },
     /// Run the firmware library on the host behind a pseudo-terminal (or a given port),
@@ -133,8 +133,8 @@ enum Cmd {
         /// surge, ...
         #[arg(long, default_value = "still")]
         scenario: String,
-        /// Time scale: simulated seconds per real second.
-        #[arg(long, default_value_t = 1.0)]
+        /// Time scale: simulated seconds per real second (above 0, at most 1000).
+        #[arg(long, default_value_t = 1.0, value_parser = speed_arg)]
         speed: f64,
         /// Simulated depth, m.
         #[arg(long, default_value_t = 2.5)]
@@ -231,8 +231,41 @@ fn io_err(e: io::Error) -> String {
     e.to_string()
 }
 
+/// The longest duration any argument takes, s: a year.
+const MAX_SECONDS: f64 = 366.0 * 86_400.0;
+
+/// A number argument within `lo..=hi` (`lo` excluded when `open_lo`), or a one-line error that
+/// names the value and the range: checked before anything is opened, sent or written.
+fn number_in(s: &str, what: &str, lo: f64, open_lo: bool, hi: f64) -> Result<f64, String> {
+    let v: f64 = s.trim().parse().map_err(|_| format!("'{s}' is not a number ({what})"))?;
+    let above = if open_lo { v > lo } else { v >= lo };
+    if v.is_finite() && above && v <= hi {
+        Ok(v)
+    } else {
+        let from = if open_lo { format!("above {lo}") } else { format!("from {lo}") };
+        Err(format!("'{s}': {what} must be finite, {from} and at most {hi}"))
+    }
+}
+
+/// A duration, s: finite, above 0, at most [`MAX_SECONDS`].
+fn seconds_arg(s: &str) -> Result<f64, String> {
+    number_in(s, "seconds", 0.0, true, MAX_SECONDS)
+}
+
+/// `ACAL`'s averaging time, s: the device accepts 0.5–60.
+fn acal_seconds_arg(s: &str) -> Result<f64, String> {
+    number_in(s, "seconds per position", 0.5, false, 60.0)
+}
+
+/// The emulator's time scale.
+fn speed_arg(s: &str) -> Result<f64, String> {
+    number_in(s, "speed", 0.0, true, 1000.0)
+}
+
+/// A duration from a checked argument (clamped, so that sums such as `seconds + 10` stay
+/// representable).
 fn secs(s: f64) -> Duration {
-    Duration::from_secs_f64(s.clamp(0.0, 1e6))
+    Duration::from_secs_f64(if s.is_finite() { s.clamp(0.0, MAX_SECONDS) } else { 0.0 })
 }
 
 fn send(port: &str, words: &[String], timeout: f64, wait_late: Option<f64>) -> ExitCode {
