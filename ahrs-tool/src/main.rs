@@ -88,6 +88,10 @@ enum Cmd {
         /// to this CSV: `t,roll,pitch,yaw`, degrees as the device printed them.
         #[arg(long, value_name = "FILE", requires = "restart")]
         device_estimates: Option<PathBuf>,
+        /// Overwrite an existing `--out` (and `--device-estimates`) file; without it an
+        /// existing file is refused before anything is sent.
+        #[arg(long)]
+        force: bool,
     },
     /// Save a device's settings to a file, or send a file's settings to a device (`NAME=VALUE`
     /// lines, the device's names and units: `host-tests replay --settings` reads them too).
@@ -198,8 +202,8 @@ fn main() -> ExitCode {
         Cmd::Send { port, command, timeout, wait_late } => {
             return send(&port, &command, timeout, wait_late);
         }
-        Cmd::Log { port, out, seconds, restart, device_estimates } => {
-            log(&port, &out, seconds, restart, device_estimates.as_deref())
+        Cmd::Log { port, out, seconds, restart, device_estimates, force } => {
+            log(&port, &out, seconds, restart, device_estimates.as_deref(), force)
         }
         Cmd::Calibrate { port, seconds } => calibrate(&port, seconds),
         Cmd::Bridge { port, udp, tcp, seconds } => {
@@ -336,7 +340,20 @@ fn log(
     seconds: Option<f64>,
     restart: bool,
     estimates_path: Option<&Path>,
+    force: bool,
 ) -> Result<(), String> {
+    // A log records a dive that cannot be recorded again: an existing file (or link, dangling
+    // or not) is refused before the port is opened, unless `--force`.
+    if !force {
+        for p in std::iter::once(out).chain(estimates_path) {
+            if p.symlink_metadata().is_ok() {
+                return Err(format!(
+                    "{} exists: a log is not overwritten without --force (choose another name)",
+                    p.display()
+                ));
+            }
+        }
+    }
     let mut link = Link::open(port)?;
     // What the samples already had applied and the device's settings (`host-tests replay`
     // applies them, and no conditioning twice); read before the file is created.

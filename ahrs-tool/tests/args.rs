@@ -59,3 +59,36 @@ fn bad_durations_and_speeds_are_refused_before_anything_happens() {
     }
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// Issue #29, point 2: `log` refuses an existing `--out` (or `--device-estimates`) file before
+/// the port is opened, whatever the link: the file keeps its bytes. `--force` gets past the
+/// check (to the port, missing here, so the file is still untouched).
+#[test]
+fn log_refuses_an_existing_file_without_force() {
+    let dir = std::env::temp_dir().join(format!("ahrs-tool-logfile-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let port = dir.join("no-such-port").display().to_string();
+    let old = dir.join("dive.csv");
+    std::fs::write(&old, b"a dive that cannot be repeated\n").unwrap();
+    let link = dir.join("link.csv");
+    std::os::unix::fs::symlink(dir.join("gone.csv"), &link).unwrap();
+    let fresh = dir.join("fresh.csv").display().to_string();
+    let cases: [&[&str]; 3] = [
+        &["log", &port, "--out", old.to_str().unwrap()],
+        &["log", &port, "--out", link.to_str().unwrap()],
+        &["log", &port, "--out", &fresh, "--restart", "--device-estimates", old.to_str().unwrap()],
+    ];
+    for args in cases {
+        let out = Command::new(BIN).args(args).output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains("exists") && err.contains("--force"), "{args:?}: {err}");
+        assert_eq!(err.lines().count(), 1, "{args:?}: {err}");
+        let forced = Command::new(BIN).args(args).arg("--force").output().unwrap();
+        let ferr = String::from_utf8_lossy(&forced.stderr);
+        assert!(!ferr.contains("--force"), "{args:?} --force: {ferr}");
+    }
+    assert_eq!(std::fs::read(&old).unwrap(), b"a dive that cannot be repeated\n");
+    assert!(!dir.join("gone.csv").exists() && !dir.join("fresh.csv").exists());
+    std::fs::remove_dir_all(&dir).ok();
+}

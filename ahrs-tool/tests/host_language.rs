@@ -295,6 +295,7 @@ fn a_restarted_log_replays_to_the_devices_own_estimates() {
         "--restart",
         "--device-estimates",
         same.to_str().unwrap(),
+        "--force",
     ]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(stderr(&o).contains("is the --out file"), "{}", stderr(&o));
