@@ -210,9 +210,9 @@ fn a_still_board_with_realistic_sensors_keeps_its_bias() {
     // the defaults (the window is still: vibration and quantisation are within its limits) and
     // started at once with the 2 °/s bias uncertainty and 30° tilt uncertainty of a start in
     // motion. The bias must stay put in both. (Session 6: a window that took the vibration for
-    // motion ran its z bias to 4 °/s with the first bias-gain design; the window's limits and
-    // the bias gain of docs/filter.md are what keep it. `ekf_heading_on_repoimu_holds` is the
-    // test that fails without that bias gain.)
+    // motion ran its z bias to 4 °/s with the first bias-gain design. Since session 13 the
+    // window's limits, the low-pass's delay model and the bias not learned about the vertical
+    // keep it: docs/filter.md.)
     use host_tests::accuracy::replay_config;
     use host_tests::sim::GYRO_BIAS_DPS;
     for moving_start in [false, true] {
