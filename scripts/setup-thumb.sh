@@ -69,25 +69,16 @@ debs_ok() {
   [ "$(printf '%s\n' "$st" | wc -l)" -eq 1 ] && [ "${st:0:2}" = ii ] \
     && [ -d "$(/usr/bin/rustc --print sysroot)/lib/rustlib/src/rust/library/core" ]
 }
-apt_updated=""
-apt_install() {
-  export DEBIAN_FRONTEND=noninteractive
-  local sudo=""
-  [ "$(id -u)" -eq 0 ] || sudo=sudo
-  # Update first: with stale lists apt would install bookworm's old rustc-web (1.85) instead of the
-  # bookworm-security one (1.96).
-  local out
-  if [ -z "$apt_updated" ]; then
-    out=$($sudo apt-get update -qq 2>&1) || { printf '%s\n' "$out" >&2; return 1; }
-    apt_updated=1
-  fi
-  out=$($sudo apt-get install -y -qq --no-install-recommends "$@" 2>&1) || { printf '%s\n' "$out" >&2; return 1; }
-}
+# Update first: with stale lists apt would install bookworm's old rustc-web (1.85) instead of the
+# bookworm-security one (1.96). Root or sudo, waiting for the package manager's lock: lib/apt.sh.
+APT_UPDATE_FIRST=1
+# shellcheck source=scripts/lib/apt.sh
+. "$root/scripts/lib/apt.sh"
 deb_rustc=/usr/bin/rustc
 deb_cargo=/usr/bin/cargo
 if ! debs_ok; then
   log "installing Debian $debs"
-  apt_install $debs
+  apt_install $debs || exit 1
   debs_ok || { log "Debian $debs not usable (mixed versions, or no library/core in the sysroot)"; exit 1; }
   log "using $("$deb_rustc" -V)"
 fi
@@ -101,7 +92,7 @@ for cand in "${RUSTUP_HOME:-$HOME/.rustup}"/toolchains/*/lib/rustlib/x86_64-unkn
 done
 if [ -z "$linker" ]; then
   log "installing Debian lld"
-  apt_install lld
+  apt_install lld || exit 1
   linker=/usr/bin/ld.lld
 fi
 write_env buildstd "$deb_cargo" "$deb_rustc" "$linker"

@@ -1,30 +1,34 @@
 #!/usr/bin/env bash
 # One set-up path for the README, CI and developers. Idempotent; quiet when already done.
-#  - host toolchain components (rustfmt, clippy) when rustup manages the toolchain;
-#  - the thumbv7m-none-eabi route (scripts/setup-thumb.sh);
+#
+#   scripts/setup.sh              everything the tests need (scripts/test-all, .ci/run)
+#   scripts/setup.sh --emulated   only what the main job needs (scripts/run-emulated)
+#
+# The main job (--emulated):
+#  - the thumbv7m-none-eabi route and flip-link (scripts/setup-thumb.sh);
 #  - qemu-system-arm for the emulated runs;
-#  - gcc-arm-none-eabi, for libgcc's soft-float routines (tools/soft_float.rs);
+#  - gcc-arm-none-eabi, for libgcc's soft-float routines (tools/soft_float.rs).
+# The tests, in addition:
+#  - host toolchain components (rustfmt, clippy) when rustup manages the toolchain;
 #  - node, npm and python3's venv, then the real NMEA clients of the marine tests (pynmea2,
-#    Signal K's parser) under target/ (scripts/marine-clients).
+#    Signal K's parser) under target/ (scripts/marine-clients);
+#  - g++ for libFuzzer (scripts/fuzz).
+# Debian packages come through scripts/lib/apt.sh: as root or with sudo, waiting (and saying so)
+# while another install holds the package manager's lock, and naming the package and the
+# command to run by hand when an install fails.
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 
+mode=all
+case "${1:-}" in
+  "") ;;
+  --emulated) mode=emulated ;;
+  *) echo "setup: unknown argument '$1' (scripts/setup.sh [--emulated])" >&2; exit 2 ;;
+esac
+
 log() { echo "setup: $*" >&2; }
-
-apt_install() {
-  export DEBIAN_FRONTEND=noninteractive
-  if ! apt-get install -y -qq --no-install-recommends "$@" >/dev/null 2>&1; then
-    apt-get update -qq >/dev/null
-    apt-get install -y -qq --no-install-recommends "$@" >/dev/null
-  fi
-}
-
-if command -v rustup >/dev/null 2>&1; then
-  for c in rustfmt clippy; do
-    rustup component list --installed 2>/dev/null | grep -q "^$c" \
-      || { log "adding $c"; rustup component add "$c" >/dev/null 2>&1 || log "could not add $c"; }
-  done
-fi
+# shellcheck source=scripts/lib/apt.sh
+. "$root/scripts/lib/apt.sh"
 
 "$root/scripts/setup-thumb.sh"
 
@@ -39,9 +43,18 @@ if [ -z "${AHRS_LIBGCC:-}" ] && [ "${AHRS_SOFTFLOAT:-}" != builtins ] \
   && ! command -v "${ARM_NONE_EABI_GCC:-arm-none-eabi-gcc}" >/dev/null 2>&1; then
   log "installing gcc-arm-none-eabi (libgcc's soft-float for the Cortex-M3)"
   apt_install gcc-arm-none-eabi || {
-    log "could not install gcc-arm-none-eabi: thumb builds need libgcc's soft-float (tools/soft_float.rs; AHRS_SOFTFLOAT=builtins for a different image on purpose)"
+    log "thumb builds need libgcc's soft-float (tools/soft_float.rs; AHRS_SOFTFLOAT=builtins for a different image on purpose)"
     exit 1
   }
+fi
+
+[ "$mode" = emulated ] && exit 0
+
+if command -v rustup >/dev/null 2>&1; then
+  for c in rustfmt clippy; do
+    rustup component list --installed 2>/dev/null | grep -q "^$c" \
+      || { log "adding $c"; rustup component add "$c" >/dev/null 2>&1 || log "could not add $c"; }
+  done
 fi
 
 # The marine tests read the device's sentences with real clients (ahrs-tool/tests/marine.rs):
