@@ -71,6 +71,38 @@ impl Status {
     }
 }
 
+/// The name of every status bit but the heading reference's (bits 20–21), as the status table
+/// of `docs/troubleshooting.md` gives it (a test holds the two together); for operators' tools.
+pub const BIT_NAMES: [(Status, &str); 19] = [
+    (Status::from_flags(Flags::INITIALISING), "initialising"),
+    (Status::from_flags(Flags::GYRO_INVALID), "gyro invalid"),
+    (Status::from_flags(Flags::TIME_GAP), "time gap"),
+    (Status::from_flags(Flags::GYRO_SATURATED), "gyro saturated"),
+    (Status::from_flags(Flags::ACCEL_INVALID), "accelerometer invalid"),
+    (Status::from_flags(Flags::ACCEL_GATED), "acceleration gate"),
+    (Status::from_flags(Flags::ACCEL_KNOCK), "knock"),
+    (Status::from_flags(Flags::ACCEL_REJECT_LONG), "long rejection"),
+    (Status::from_flags(Flags::ACCEL_USED), "accelerometer used"),
+    (Status::from_flags(Flags::AT_REST), "at rest"),
+    (Status::from_flags(Flags::MAG_USED), "magnetometer used"),
+    (Status::from_flags(Flags::MAG_REJECTED), "magnetometer rejected"),
+    (Status::from_flags(Flags::HEALTH_RESET), "health reset"),
+    (Status::from_flags(Flags::REACQUIRE), "reacquire"),
+    (Status::from_flags(Flags::MOVING_START), "moving start"),
+    (Status::I2C_FAULT, "I²C fault"),
+    (Status::ADC_FAULT, "ADC fault"),
+    (Status::GYRO_RAIL, "gyro saturated (conversion)"),
+    (Status::DEPTH_RAIL, "depth rail"),
+];
+
+impl Status {
+    /// The names of the bits set, lowest bit first ([`BIT_NAMES`]; the heading reference's
+    /// bits and reserved bits are not named).
+    pub fn names(self) -> impl Iterator<Item = &'static str> {
+        BIT_NAMES.iter().filter(move |(bit, _)| self.contains(*bit)).map(|(_, name)| *name)
+    }
+}
+
 impl From<Flags> for Status {
     fn from(flags: Flags) -> Status {
         Status::from_flags(flags)
@@ -120,6 +152,39 @@ impl HeadingRef {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The names are the table's of `docs/troubleshooting.md`, bit by bit, and decode its
+    /// examples as it reads them.
+    #[test]
+    fn bit_names_are_the_troubleshooting_table() {
+        let doc = include_str!("../docs/troubleshooting.md");
+        let mut rows = 0;
+        for line in doc.lines().filter(|l| l.starts_with("| ")) {
+            let cells: Vec<&str> = line.split(" | ").collect();
+            let (Ok(bit), Ok(hex)) = (
+                cells[0].trim_start_matches("| ").parse::<u32>(),
+                u32::from_str_radix(cells.get(1).copied().unwrap_or(""), 16),
+            ) else {
+                continue;
+            };
+            assert_eq!(hex, 1 << bit, "{line}");
+            if bit >= 20 {
+                continue;
+            }
+            let named: Vec<&str> = Status(hex).names().collect();
+            assert_eq!(named, [cells[2]], "bit {bit}");
+            rows += 1;
+        }
+        assert_eq!(rows, BIT_NAMES.len());
+        // "`000300` = accelerometer used + at rest"; "`110010` = heading set by `YAW`, I²C
+        // fault + accelerometer invalid".
+        assert_eq!(Status(0x000300).names().collect::<Vec<_>>(), ["accelerometer used", "at rest"]);
+        assert_eq!(
+            Status(0x110010).names().collect::<Vec<_>>(),
+            ["accelerometer invalid", "I²C fault"]
+        );
+        assert_eq!(Status(0x300000 | 1 << 15).names().count(), 0);
+    }
 
     #[test]
     fn board_bits_above_the_estimators() {

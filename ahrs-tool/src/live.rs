@@ -8,6 +8,8 @@ use std::{
     time::{Duration, Instant},
 };
 
+use inemo_ahrs::status::Status;
+
 use crate::link::Link;
 
 /// Groups the sentences of one output update. A cycle sends each enabled sentence once, so a
@@ -65,19 +67,30 @@ pub fn live_line(prdid: Option<&[String]>, pinah: Option<&[String]>) -> String {
         // status word's bits 20–21 are the heading reference.
         Some(_) => {
             let status = get(pinah, 9);
-            let reference = match u32::from_str_radix(&status, 16).map(|s| (s >> 20) & 3) {
-                Ok(0) => "relative",
-                Ok(1) => "true (YAW)",
-                Ok(2) => "true (magnetometer)",
+            let word = u32::from_str_radix(&status, 16).ok();
+            let reference = match word.map(|s| (s >> 20) & 3) {
+                Some(0) => "relative",
+                Some(1) => "true (YAW)",
+                Some(2) => "true (magnetometer)",
                 _ => "-",
             };
+            // The bits in words (docs/troubleshooting.md's names); "-" when none is set.
+            let words = word.map_or_else(String::new, |w| {
+                let names: Vec<&str> = Status(w).names().collect();
+                if names.is_empty() {
+                    " (-)".to_string()
+                } else {
+                    format!(" ({})", names.join(", "))
+                }
+            });
             format!(
-                "roll {:>8}  pitch {:>7}  yaw {:>8}  depth {:>6} m  status {}  heading {}",
+                "roll {:>8}  pitch {:>7}  yaw {:>8}  depth {:>6} m  status {}{}  heading {}",
                 get(pinah, 1),
                 get(pinah, 2),
                 get(pinah, 3),
                 get(pinah, 8),
                 status,
+                words,
                 reference
             )
         }
@@ -174,6 +187,31 @@ mod tests {
                 usize::from(p.previous) + usize::from(p.current)
             })
             .sum()
+    }
+
+    /// The status word in words, as `docs/troubleshooting.md` reads its examples.
+    #[test]
+    fn the_status_word_is_shown_in_words() {
+        let pinah = |status: &str| -> Vec<String> {
+            format!("PINAH,1.0,-2.0,30.0,1,0,0,0,4.5,{status},7")
+                .split(',')
+                .map(str::to_string)
+                .collect()
+        };
+        let line = live_line(None, Some(&pinah("000300")));
+        assert!(
+            line.ends_with("status 000300 (accelerometer used, at rest)  heading relative"),
+            "{line}"
+        );
+        let line = live_line(None, Some(&pinah("110010")));
+        assert!(
+            line.ends_with("status 110010 (accelerometer invalid, I²C fault)  heading true (YAW)"),
+            "{line}"
+        );
+        let line = live_line(None, Some(&pinah("200000")));
+        assert!(line.ends_with("status 200000 (-)  heading true (magnetometer)"), "{line}");
+        // An unreadable word is shown as it came.
+        assert!(live_line(None, Some(&pinah("zz"))).ends_with("status zz  heading -"));
     }
 
     #[test]

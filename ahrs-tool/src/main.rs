@@ -52,7 +52,8 @@ enum Cmd {
         #[arg(long, value_parser = seconds_arg)]
         seconds: Option<f64>,
     },
-    /// Send one command (`VER`, `GET gate.jump`, `SET,gate.jump,0.08`) and print the reply.
+    /// Send one command (`VER`, `GET gate.jump`, `SET,gate.jump,0.08`) and print the reply;
+    /// `LIST` alone lists every setting: name, value, unit and range.
     /// Exit status: 0 OK, 1 ERR reply, 2 no reply or I/O error.
     Send {
         /// Serial port.
@@ -182,17 +183,12 @@ enum SettingsAction {
 
 static INTERRUPTED: AtomicBool = AtomicBool::new(false);
 
-extern "C" fn on_sigint(_: libc::c_int) {
-    INTERRUPTED.store(true, Ordering::SeqCst);
-}
-
-/// Ctrl-C sets [`INTERRUPTED`] instead of killing the process.
+/// Ctrl-C sets [`INTERRUPTED`] instead of killing the process (the `ctrlc` crate: SIGINT and
+/// SIGTERM, handled on its own thread). Called by every command that runs until interrupted;
+/// the second call of a process keeps the first handler, which does the same.
 fn catch_ctrl_c() {
-    let handler: extern "C" fn(libc::c_int) = on_sigint;
-    // SAFETY: the handler only stores to an atomic, which is async-signal-safe.
-    unsafe {
-        libc::signal(libc::SIGINT, handler as libc::sighandler_t);
-    }
+    // Err(MultipleHandlers) on a second call: the handler in place already sets the flag.
+    let _ = ctrlc::try_set_handler(|| INTERRUPTED.store(true, Ordering::SeqCst));
 }
 
 fn main() -> ExitCode {
@@ -281,6 +277,16 @@ fn send(port: &str, words: &[String], timeout: f64, wait_late: Option<f64>) -> E
             return ExitCode::from(2);
         }
     };
+    // `LIST` without an index: every setting (`LIST,<i>` and `GET` for each) as a table.
+    if body.eq_ignore_ascii_case("LIST") {
+        return match settings_cmd::print_list(&mut link) {
+            Ok(()) => ExitCode::SUCCESS,
+            Err(e) => {
+                eprintln!("ahrs-tool: {e}");
+                ExitCode::from(2)
+            }
+        };
+    }
     let reply = match link.command(&body, secs(timeout)) {
         Ok(Some(r)) => r,
         Ok(None) => {
@@ -607,7 +613,10 @@ mod tests {
             fields(&format!("PINAH,1.00,2.00,3.00,1.0000,0.0000,0.0000,0.0000,2.5,{status},400"))
         };
         let line = live_line(None, Some(&p("000300")));
-        assert!(line.contains("status 000300  heading relative"), "{line}");
+        assert!(
+            line.contains("status 000300 (accelerometer used, at rest)  heading relative"),
+            "{line}"
+        );
         assert!(live_line(None, Some(&p("100300"))).ends_with("heading true (YAW)"));
         assert!(live_line(None, Some(&p("200300"))).ends_with("heading true (magnetometer)"));
         assert!(live_line(None, Some(&p(""))).ends_with("heading -"));

@@ -44,6 +44,76 @@ pub fn read_device(link: &mut Link) -> Result<Vec<(String, String)>, String> {
     Ok(out)
 }
 
+/// One setting as `LIST` and `GET` describe it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Listed {
+    pub name: String,
+    pub value: String,
+    pub unit: String,
+    /// The accepted range in `unit` (`LIST`'s `<min>,<max>`), empty for non-numbers.
+    pub min: String,
+    pub max: String,
+}
+
+/// Every setting of the device with its value, unit and range, in its `LIST` order.
+pub fn list_device(link: &mut Link) -> Result<Vec<Listed>, String> {
+    // OK,LIST,<i>,<count>,<name>,<type>,<unit>,<min>,<max>
+    let first = ok_reply(link, "LIST,0")?;
+    let count: usize = first
+        .fields
+        .get(1)
+        .and_then(|c| c.parse().ok())
+        .ok_or_else(|| format!("unexpected reply {}", first.line))?;
+    let mut out = Vec::with_capacity(count);
+    for i in 0..count {
+        let r = if i == 0 { first.clone() } else { ok_reply(link, &format!("LIST,{i}"))? };
+        let field = |k: usize| r.fields.get(k).cloned().unwrap_or_default();
+        let name = field(2);
+        if name.is_empty() {
+            return Err(format!("unexpected reply {}", r.line));
+        }
+        let g = ok_reply(link, &format!("GET,{name}"))?;
+        if g.fields.len() < 2 {
+            return Err(format!("unexpected reply {}", g.line));
+        }
+        out.push(Listed {
+            value: g.fields[1..].join(","),
+            unit: field(4),
+            // A device older than the range fields sends none: shown empty.
+            min: field(5),
+            max: field(6),
+            name,
+        });
+    }
+    Ok(out)
+}
+
+/// `send <port> LIST` (no index): every setting as a table, name, value, unit and range.
+pub fn print_list(link: &mut Link) -> Result<(), String> {
+    let rows = list_device(link)?;
+    let w =
+        |f: fn(&Listed) -> usize, head: &str| rows.iter().map(f).max().unwrap_or(0).max(head.len());
+    let (wn, wv, wu) = (
+        w(|r| r.name.len(), "name"),
+        w(|r| r.value.chars().count(), "value"),
+        w(|r| r.unit.chars().count(), "unit"),
+    );
+    let mut out = String::new();
+    out.push_str(&format!("{:wn$}  {:wv$}  {:wu$}  range\n", "name", "value", "unit"));
+    for r in &rows {
+        let range = if r.min.is_empty() && r.max.is_empty() {
+            String::new()
+        } else {
+            format!("{} … {}", r.min, r.max)
+        };
+        let line = format!("{:wn$}  {:wv$}  {:wu$}  {range}", r.name, r.value, r.unit);
+        out.push_str(line.trim_end());
+        out.push('\n');
+    }
+    print!("{out}");
+    Ok(())
+}
+
 /// The comment lines (without `# `) a log starts with: the device's `VER` fields, what its
 /// samples already had applied
 /// (`$PINAW` is the estimator's input: axis maps, calibration and lever arm applied) and its

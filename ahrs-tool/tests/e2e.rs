@@ -212,3 +212,53 @@ fn bridge_forwards_sentences_to_udp_and_tcp_and_tcp_commands_to_the_device() {
         assert!(after.iter().any(|l| l.starts_with(s)), "no {s} in {after:?}");
     }
 }
+
+/// `send LIST` without an index lists every setting: name, value, unit and range (issue #30;
+/// the device alone answers `ERR,LIST,args`). The expected rows are `docs/commands.md`'s.
+#[test]
+fn send_list_without_an_index_lists_every_setting() {
+    let emu = Emulator::start(&[]);
+    emu.tool(&["send", "SET", "gate.norm_tolerance", "0.08"]);
+    let o = emu.tool(&["send", "LIST"]);
+    assert_eq!(o.status.code(), Some(0), "{o:?}");
+    let text = stdout(&o);
+    let lines: Vec<Vec<&str>> = text.lines().map(|l| l.split_whitespace().collect()).collect();
+    assert_eq!(lines[0], ["name", "value", "unit", "range"]);
+    assert_eq!(lines.len(), 1 + inemo_ahrs::registry::SETTINGS.len(), "{text}");
+    let row = |name: &str| lines.iter().find(|l| l[0] == name).unwrap_or_else(|| panic!("{name}"));
+    // | `noise.gyro_var` | f32x3 | (deg/s)2 | 1e-6 | 100 | `0.337,0.275,0.00419` |
+    assert_eq!(row("noise.gyro_var")[1..], ["0.337,0.275,0.00419", "(deg/s)2", "1e-6", "…", "100"]);
+    // The value now, not the default: | `gate.norm_tolerance` | f32 |  | 0.001 | 1 | `1` |
+    assert_eq!(row("gate.norm_tolerance")[1..], ["0.08", "0.001", "…", "1"]);
+    // | `output.prdid` | bool |  |  |  | `1` |: no unit, no range.
+    assert_eq!(row("output.prdid")[1..], ["1"]);
+}
+
+/// Ctrl-C (SIGINT) ends `live` at once and cleanly: exit status 0, no error (the `ctrlc`
+/// handler sets the flag its loop reads; without it the process dies of the signal).
+#[test]
+fn ctrl_c_ends_live_cleanly() {
+    let emu = Emulator::start(&[]);
+    let mut child = Command::new(BIN)
+        .args(["live", &emu.port])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run live");
+    let mut out = BufReader::new(child.stdout.take().unwrap());
+    let mut line = String::new();
+    out.read_line(&mut line).unwrap();
+    assert!(line.starts_with("roll"), "{line}");
+    let kill = Command::new("kill").args(["-INT", &child.id().to_string()]).status().unwrap();
+    assert!(kill.success());
+    let start = Instant::now();
+    let status = loop {
+        if let Some(s) = child.try_wait().unwrap() {
+            break s;
+        }
+        assert!(start.elapsed() < Duration::from_secs(5), "live still running after Ctrl-C");
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    let _ = std::io::Read::read_to_string(&mut out, &mut String::new());
+    assert!(status.success(), "{status:?}");
+}

@@ -30,6 +30,7 @@ use host_tests::{
 
 mod common;
 use common::{clients, stdout, BIN};
+use nix::sys::termios;
 /// Rate of the firmware's filter (default setting) and of the trace, Hz.
 const RATE: f64 = 50.0;
 
@@ -136,13 +137,9 @@ impl Qemu {
             .custom_flags(libc::O_NOCTTY | libc::O_NONBLOCK)
             .open(&self.port)
             .expect("open pty");
-        // SAFETY: termios is plain data; the descriptor is open.
-        unsafe {
-            let mut t: libc::termios = std::mem::zeroed();
-            assert_eq!(libc::tcgetattr(port.as_raw_fd(), &mut t), 0);
-            libc::cfmakeraw(&mut t);
-            libc::tcsetattr(port.as_raw_fd(), libc::TCSANOW, &t);
-        }
+        let mut t = termios::tcgetattr(port.as_raw_fd()).expect("tcgetattr");
+        termios::cfmakeraw(&mut t);
+        termios::tcsetattr(port.as_raw_fd(), termios::SetArg::TCSANOW, &t).expect("tcsetattr");
         port
     }
 

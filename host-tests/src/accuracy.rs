@@ -411,7 +411,8 @@ pub fn run_with(scenario: Scenario, opts: &SimOptions, filter: FilterKind) -> Ru
     evaluate_from(&rows, filter, &cfg, tilt_start_s(scenario, &cfg))
 }
 
-/// CPU time of the calling thread, s (`clock_gettime(CLOCK_THREAD_CPUTIME_ID)`, nanoseconds),
+/// CPU time of the calling thread, s (`clock_gettime(CLOCK_THREAD_CPUTIME_ID)` through the
+/// `cpu-time` crate, nanoseconds),
 /// so that other processes competing for the cores do not count in a timing; `None` where
 /// unavailable (callers then use wall time).
 ///
@@ -419,12 +420,8 @@ pub fn run_with(scenario: Scenario, opts: &SimOptions, filter: FilterKind) -> Ru
 /// to date only at scheduler ticks, so it lags by up to a tick (4 ms at 250 Hz) and a best-of
 /// of short runs reads low. The clock adds the time since the last tick.
 #[cfg(unix)]
-#[allow(unsafe_code)]
 pub fn thread_cpu_s() -> Option<f64> {
-    let mut ts = libc::timespec { tv_sec: 0, tv_nsec: 0 };
-    // SAFETY: `ts` is a valid, writable `timespec` for the duration of the call.
-    let r = unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
-    (r == 0).then_some(ts.tv_sec as f64 + ts.tv_nsec as f64 * 1e-9)
+    cpu_time::ThreadTime::try_now().ok().map(|t| t.as_duration().as_secs_f64())
 }
 
 /// CPU time of the calling thread: not available here (callers use wall time).

@@ -7,8 +7,8 @@
 //! Conventions are those of `ekf-core`: body FRD, reference NED, SI units, scalar-first
 //! Hamilton quaternion rotating body → NED, Z-Y-X Euler angles (degrees in files), the
 //! accelerometer reads specific force (a level, still board reads (0, 0, −9.81) m/s²).
-// `unsafe` only where allowed by name: the benchmarks' thread CPU clock (`accuracy::thread_cpu_s`).
-#![deny(unsafe_code)]
+// No `unsafe` here: the thread CPU clock comes from the `cpu-time` crate (issue #30).
+#![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
 pub mod accuracy;

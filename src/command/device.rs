@@ -452,6 +452,16 @@ impl Device {
                 out.field(setting.name);
                 out.field(setting.kind.name());
                 out.field(setting.unit());
+                // The accepted range in the unit above (`docs/commands.md`'s table); empty
+                // for kinds that are not numbers (bool, axes, talker).
+                if matches!(setting.kind, Kind::F32 | Kind::Vec3 | Kind::U16) {
+                    let (min, max) = setting.range();
+                    out.num_f32(min);
+                    out.num_f32(max);
+                } else {
+                    out.field("");
+                    out.field("");
+                }
                 Ok((out, None))
             }
             Verb::Raw => {

@@ -93,9 +93,9 @@ fn version_status_and_list() {
     assert_eq!(run(&mut d, &mut f, "PINAC,STATUS").0, "PINAR,OK,STATUS,DEFAULTS,,POR,0001,00,R,,");
     assert_eq!(
         run(&mut d, &mut f, "PINAC,LIST,0").0,
-        "PINAR,OK,LIST,0,74,noise.gyro_var,f32x3,(deg/s)2"
+        "PINAR,OK,LIST,0,74,noise.gyro_var,f32x3,(deg/s)2,1e-6,100"
     );
-    assert_eq!(run(&mut d, &mut f, "PINAC,LIST,66").0, "PINAR,OK,LIST,66,74,output.prdid,bool,");
+    assert_eq!(run(&mut d, &mut f, "PINAC,LIST,66").0, "PINAR,OK,LIST,66,74,output.prdid,bool,,,");
     for i in 0..SETTINGS.len() {
         assert!(run(&mut d, &mut f, &format!("PINAC,LIST,{i}")).0.starts_with("PINAR,OK,LIST,"));
     }

@@ -259,6 +259,21 @@ fn docs_list_every_setting_exactly() {
     assert!(missing.is_empty(), "rows missing from docs/commands.md:\n{}", missing.join("\n"));
 }
 
+/// `docs/commands.md`'s `LIST` row and example quote the registry's size: the indices
+/// `0…<count − 1>` and the count in the reply (issue #30: it said 0…73 with 77 settings).
+#[test]
+fn docs_quote_the_registry_size() {
+    let doc = include_str!("../../docs/commands.md");
+    let n = SETTINGS.len();
+    let row = doc.lines().find(|l| l.starts_with("| `LIST,<i>` |")).expect("LIST row");
+    assert!(row.contains(&format!("registry, 0…{} ", n - 1)), "{row}");
+    assert!(doc.contains(&format!("< $PINAR,OK,LIST,0,{n},")), "LIST example");
+    assert!(
+        doc.contains(&format!("< $PINAR,OK,VER,inemo-ahrs,{},1,{n}*", crate::command::VERSION)),
+        "VER"
+    );
+}
+
 /// Prints the registry table for `docs/commands.md`:
 /// `cargo test -p inemo-ahrs --lib print_doc_rows -- --ignored --nocapture`.
 #[test]
