@@ -123,6 +123,13 @@ enum Cmd {
         /// Output image: `.png` or `.svg`.
         #[arg(long)]
         out: PathBuf,
+        /// The title's first part, e.g. the scenario and the filter (default: the two
+        /// files' names); the RMSE after initialisation follows it.
+        #[arg(long)]
+        title: Option<String>,
+        /// Image size in pixels, WIDTHxHEIGHT.
+        #[arg(long, default_value = "1600x1050", value_parser = host_tests::plot::parse_size)]
+        size: (u32, u32),
     },
 }
 
@@ -431,7 +438,13 @@ impl FlagSummary {
     }
 }
 
-fn run_plot(trace: &Path, est: &Path, out: &Path) -> Result<(), String> {
+fn run_plot(
+    trace: &Path,
+    est: &Path,
+    out: &Path,
+    title: Option<String>,
+    size: (u32, u32),
+) -> Result<(), String> {
     use host_tests::plot::{read_figure, render_png, render_svg, Format};
     let format = Format::of(out)?;
     refuse_overwriting_inputs(out, &[trace, est]).map_err(|e| e.to_string())?;
@@ -440,18 +453,22 @@ fn run_plot(trace: &Path, est: &Path, out: &Path) -> Result<(), String> {
             .map(|f| BufReader::with_capacity(1 << 16, f))
             .map_err(|e| format!("{}: {e}", p.display()))
     };
-    let fig = read_figure(
+    let mut fig = read_figure(
         open(trace)?,
         open(est)?,
         &trace.display().to_string(),
         &est.display().to_string(),
     )?;
+    let name = |p: &Path| {
+        p.file_name().map_or_else(|| p.display().to_string(), |n| n.to_string_lossy().into_owned())
+    };
+    fig.title = title.unwrap_or_else(|| format!("{} · {}", name(trace), name(est)));
     match format {
         Format::Png => produce_atomically(out, |tmp| -> Result<(), PlotErr> {
-            render_png(&fig, tmp).map_err(PlotErr::Msg)
+            render_png(&fig, tmp, size).map_err(PlotErr::Msg)
         }),
         Format::Svg => {
-            let svg = render_svg(&fig)?;
+            let svg = render_svg(&fig, size)?;
             write_atomically(out, |w| -> Result<(), PlotErr> {
                 use std::io::Write as _;
                 w.write_all(svg.as_bytes())?;
@@ -466,7 +483,7 @@ fn run_plot(trace: &Path, est: &Path, out: &Path) -> Result<(), String> {
     if !fig.has_truth() {
         eprintln!("plot: the trace has no truth columns: the estimate alone, without error panels");
     }
-    say!("plot: {} rows -> {}", fig.rows(), out.display());
+    say!("plot: {} rows -> {} ({})", fig.rows(), out.display(), fig.title_line());
     Ok(())
 }
 
@@ -518,7 +535,7 @@ fn main() -> ExitCode {
             let opts = ReplayOptions { set, settings, no_init_bias, foreign, skip_bad_rows };
             run_replay(&trace, &out, filter, &opts)
         }
-        Cmd::Plot { trace, est, out } => run_plot(&trace, &est, &out),
+        Cmd::Plot { trace, est, out, title, size } => run_plot(&trace, &est, &out, title, size),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

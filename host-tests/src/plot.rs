@@ -292,6 +292,15 @@ pub struct Figure {
     error: [Decimator; 3],
     rows: u64,
     truth_rows: u64,
+    /// Sum of squared errors (deg²) per axis and the rows counted, after initialisation.
+    sq_err: [f64; 3],
+    scored_rows: u64,
+    /// The initialisation window: from the first row to the first row without the
+    /// `INITIALISING` flag (the estimate's `flags` column), s.
+    init: Option<(f64, f64)>,
+    initialising: bool,
+    /// The title's first part (the trace, the filter); the RMSE is added to it.
+    pub title: String,
 }
 
 impl Default for Figure {
@@ -303,6 +312,11 @@ impl Default for Figure {
             error: [d(), d(), d()],
             rows: 0,
             truth_rows: 0,
+            sq_err: [0.0; 3],
+            scored_rows: 0,
+            init: None,
+            initialising: false,
+            title: String::new(),
         }
     }
 }
@@ -327,9 +341,60 @@ impl Figure {
         }
         if let Some(te) = truth_deg {
             for i in 0..3 {
-                self.error[i].push(t, wrap_deg(est_deg[i] - te[i]));
+                let e = wrap_deg(est_deg[i] - te[i]);
+                self.error[i].push(t, e);
+                if !self.initialising {
+                    self.sq_err[i] += e * e;
+                }
+            }
+            if !self.initialising {
+                self.scored_rows += 1;
             }
         }
+    }
+
+    /// The estimate's flags of the row about to be added: rows with `INITIALISING` (bit 0) at
+    /// the start make the initialisation window, shaded and left out of the RMSE.
+    pub fn flags(&mut self, t: f64, flags: u32) {
+        let init = flags & u32::from(ekf_core::Flags::INITIALISING.bits()) != 0;
+        if self.rows == 0 {
+            self.initialising = init;
+            if init {
+                self.init = Some((t, t));
+            }
+        } else if self.initialising {
+            if let Some(w) = &mut self.init {
+                w.1 = t;
+            }
+            self.initialising = init;
+        }
+    }
+
+    /// RMSE per axis (roll, pitch, yaw; deg) over the rows with truth after initialisation.
+    pub fn rmse_deg(&self) -> Option<[f64; 3]> {
+        (self.scored_rows > 0).then(|| self.sq_err.map(|s| (s / self.scored_rows as f64).sqrt()))
+    }
+
+    /// The initialisation window `(start, end)`, s, when the estimate has flags that say so.
+    pub fn init_window(&self) -> Option<(f64, f64)> {
+        self.init
+    }
+
+    /// The title line: [`Figure::title`] and the RMSE.
+    pub fn title_line(&self) -> String {
+        let mut t = self.title.clone();
+        match self.rmse_deg() {
+            Some([r, p, y]) => {
+                if !t.is_empty() {
+                    t.push_str("  ·  ");
+                }
+                let after = if self.init.is_some() { " after initialisation" } else { "" };
+                t.push_str(&format!("RMSE{after}: roll {r:.3}°, pitch {p:.3}°, yaw {y:.3}°"));
+            }
+            None if t.is_empty() => t.push_str("attitude estimate (the trace has no truth)"),
+            None => t.push_str("  ·  no truth in the trace"),
+        }
+        t
     }
 
     /// Rows added.
@@ -362,7 +427,7 @@ type Chunks<T> = std::sync::mpsc::Receiver<Result<Vec<T>, String>>;
 /// A trace row for the figure: time, truth Euler angles (deg).
 type TraceItem = (f64, Option<[f64; 3]>);
 /// An estimate row for the figure: time, Euler angles (deg).
-type EstItem = (f64, [f64; 3]);
+type EstItem = (f64, [f64; 3], u32);
 
 /// The next item of a chunked stream: `Ok(None)` at its end (the sender gone).
 fn pull<T>(rx: &Chunks<T>, cur: &mut std::vec::IntoIter<T>) -> Result<Option<T>, String> {
@@ -421,12 +486,18 @@ where
         idx[i] = est.require(name).map_err(eerr)?;
     }
     let [ti, _, _, _, _, ri, pi, yi] = idx;
-    let mut next_est = move || -> Result<Option<(f64, [f64; 3])>, TraceError> {
+    // The flags, when the file has them: the initialisation window.
+    let fi = est.index_of("flags");
+    let mut next_est = move || -> Result<Option<EstItem>, TraceError> {
         let Some(rec) = est.next_record()? else {
             return Ok(None);
         };
         let t = rec.f64(ti)?;
-        Ok(Some((t, [rec.f32(ri)?, rec.f32(pi)?, rec.f32(yi)?].map(f64::from))))
+        let flags = match fi {
+            Some(i) => rec.f64(i)? as u32,
+            None => 0,
+        };
+        Ok(Some((t, [rec.f32(ri)?, rec.f32(pi)?, rec.f32(yi)?].map(f64::from), flags)))
     };
     let (tx, rx) = std::sync::mpsc::sync_channel(4);
     let (etx, erx) = std::sync::mpsc::sync_channel(4);
@@ -498,7 +569,7 @@ where
         let (mut trace_rows, mut est_rows) = (0u64, 0u64);
         loop {
             match (pull(&rx, &mut tcur)?, pull(&erx, &mut ecur)?) {
-                (Some((t, truth)), Some((et, euler))) => {
+                (Some((t, truth)), Some((et, euler, flags))) => {
                     trace_rows += 1;
                     est_rows += 1;
                     if (t - et).abs() > 1e-6 * (1.0 + t.abs()) {
@@ -507,6 +578,7 @@ where
                              trace's {t} (one estimate row per trace row, from `replay`)"
                         ));
                     }
+                    fig.flags(t, flags);
                     fig.add_estimate(t, euler, truth);
                 }
                 (Some(_), None) => {
@@ -550,6 +622,8 @@ const TRUTH: RGBColor = RGBColor(150, 185, 235);
 const ESTIMATE: RGBColor = RGBColor(150, 20, 20);
 /// Error.
 const ERROR: RGBColor = RGBColor(20, 40, 140);
+/// The initialisation window's shade.
+const INIT: RGBColor = RGBColor(225, 225, 225);
 
 fn y_range(series: &[&Decimator]) -> std::ops::Range<f64> {
     let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
@@ -581,12 +655,7 @@ where
     root.fill(&WHITE)?;
     let body = if text {
         let (head, body) = root.split_vertically(70);
-        let title = if has_truth {
-            "attitude: truth and estimate, and the error (degrees)"
-        } else {
-            "attitude: estimate (degrees; the trace has no truth)"
-        };
-        head.draw(&Text::new(title, (20, 8), (FAMILY, 24).into_font()))?;
+        head.draw(&Text::new(fig.title_line(), (20, 8), (FAMILY, 22).into_font()))?;
         // The legend, above the panels: outside the data.
         let mut entries = vec![];
         if has_truth {
@@ -596,6 +665,10 @@ where
         if has_truth {
             entries.push(("error (estimate - truth)", ERROR.stroke_width(1)));
         }
+        if fig.init.is_some() {
+            entries.push(("initialisation", INIT.stroke_width(10)));
+        }
+        entries.push(("degrees against t (s)", WHITE.stroke_width(0)));
         let mut x = 20;
         for (label, style) in entries {
             head.draw(&PathElement::new(vec![(x, 52), (x + 40, 52)], style))?;
@@ -645,6 +718,14 @@ where
             mesh.x_labels(0).y_labels(0);
         }
         mesh.draw()?;
+        // The initialisation window, shaded under the series.
+        if let Some((t0, t1)) = fig.init {
+            let (y0, y1) = (chart.y_range().start, chart.y_range().end);
+            chart.draw_series(std::iter::once(Rectangle::new(
+                [(t0, y0), (t1.max(t0), y1)],
+                INIT.filled(),
+            )))?;
+        }
         // In order: the truth first, under the estimate.
         for (d, style) in series {
             for seg in d.segments() {
@@ -658,17 +739,28 @@ where
 
 /// Draw `fig` into a PNG file at `path` (written directly; the caller makes it all or
 /// nothing, e.g. with [`crate::output::produce_atomically`]).
-pub fn render_png(fig: &Figure, path: &Path) -> Result<(), String> {
-    draw(BitMapBackend::new(path, SIZE).into_drawing_area(), fig)
+pub fn render_png(fig: &Figure, path: &Path, size: (u32, u32)) -> Result<(), String> {
+    draw(BitMapBackend::new(path, size).into_drawing_area(), fig)
         .map_err(|e| format!("drawing failed: {e}"))
 }
 
 /// Draw `fig` as SVG text.
-pub fn render_svg(fig: &Figure) -> Result<String, String> {
+pub fn render_svg(fig: &Figure, size: (u32, u32)) -> Result<String, String> {
     let mut s = String::new();
-    draw(SVGBackend::with_string(&mut s, SIZE).into_drawing_area(), fig)
+    draw(SVGBackend::with_string(&mut s, size).into_drawing_area(), fig)
         .map_err(|e| format!("drawing failed: {e}"))?;
     Ok(s)
+}
+
+/// A `--size WIDTHxHEIGHT` in pixels, each 400…8000.
+pub fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    let bad = || format!("'{s}': the size is WIDTHxHEIGHT in pixels, each 400 to 8000 (1600x1050)");
+    let (w, h) = s.split_once(['x', 'X']).ok_or_else(bad)?;
+    let (w, h): (u32, u32) = (w.parse().map_err(|_| bad())?, h.parse().map_err(|_| bad())?);
+    if !(400..=8000).contains(&w) || !(400..=8000).contains(&h) {
+        return Err(bad());
+    }
+    Ok((w, h))
 }
 
 #[cfg(test)]

@@ -776,3 +776,63 @@ fn replay_shows_progress_on_a_terminal() {
     // The bar's line: drawn and cleared with escape codes, with the bytes read.
     assert!(out.contains('\u{1b}') && out.contains(" KiB"), "{out:?}");
 }
+
+/// The plot's title names the run and gives the RMSE after initialisation, which the test
+/// computes itself from the two files (truth quaternion to ZYX Euler angles by hand); the
+/// initialisation window (rows flagged INITIALISING, bit 0) is shaded; `--size` sets the
+/// image's size and a bad size is refused before anything is written (issue #30).
+#[test]
+fn plot_titles_the_run_with_its_rmse_and_shades_the_initialisation() {
+    let dir = tempfile::tempdir().unwrap();
+    let trace = simulate(dir.path(), "yaw-sine", "20");
+    let est = dir.path().join("est.csv");
+    assert!(run(&["replay", p(&trace), "--out", p(&est)]).status.success());
+    let svg = dir.path().join("fig.svg");
+    let args = ["plot", p(&trace), p(&est), "--out", p(&svg), "--title", "yaw-sine, EKF"];
+    let o = run(&[&args[..], &["--size", "1000x700"]].concat());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = std::fs::read_to_string(&svg).unwrap();
+    assert!(text.starts_with("<svg width=\"1000\" height=\"700\""), "{}", &text[..100]);
+
+    // The RMSE by hand: rows after the last INITIALISING row, angle errors wrapped to ±180°.
+    let rows = |path: &Path| -> Vec<Vec<f64>> {
+        let t = std::fs::read_to_string(path).unwrap();
+        t.lines()
+            .filter(|l| !l.starts_with('#'))
+            .skip(1)
+            .map(|l| l.split(',').map(|c| c.parse().unwrap()).collect())
+            .collect()
+    };
+    let (tr, es) = (rows(&trace), rows(&est));
+    let mut sq = [0.0f64; 3];
+    let (mut n, mut init_end) = (0.0, 0.0);
+    for (a, e) in tr.iter().zip(&es) {
+        if e[11] as u32 & 1 != 0 {
+            init_end = e[0];
+            continue;
+        }
+        let (w, x, y, z) = (a[7], a[8], a[9], a[10]);
+        let roll = (2.0 * (w * x + y * z)).atan2(1.0 - 2.0 * (x * x + y * y));
+        let pitch = (2.0 * (w * y - z * x)).clamp(-1.0, 1.0).asin();
+        let yaw = (2.0 * (w * z + x * y)).atan2(1.0 - 2.0 * (y * y + z * z));
+        for (i, truth) in [roll, pitch, yaw].iter().enumerate() {
+            let d = (e[5 + i] - truth.to_degrees() + 540.0).rem_euclid(360.0) - 180.0;
+            sq[i] += d * d;
+        }
+        n += 1.0;
+    }
+    assert!(init_end > 5.0 && n > 100.0, "{init_end} {n}");
+    let [r, pch, y] = sq.map(|s| (s / n).sqrt());
+    let title = format!(
+        "yaw-sine, EKF  ·  RMSE after initialisation: roll {r:.3}°, pitch {pch:.3}°, yaw {y:.3}°"
+    );
+    assert!(text.contains(&title), "no title {title:?} in the SVG");
+    // The shade: a filled rectangle in the initialisation's grey, one per panel.
+    assert_eq!(text.matches("fill=\"#E1E1E1\"").count(), 6, "one per panel");
+
+    // A bad size: refused, nothing written.
+    let bad = dir.path().join("bad.svg");
+    let o = run(&["plot", p(&trace), p(&est), "--out", p(&bad), "--size", "10x10"]);
+    assert!(!o.status.success() && stderr(&o).contains("10x10"), "{}", stderr(&o));
+    assert!(!bad.exists());
+}
