@@ -5,8 +5,8 @@
 //! conversions and axis maps, and embeds it. Record: `dt` (f32), six ADC mean counts (f32),
 //! three accelerometer counts (i16), all little-endian.
 //!
-//! For bare-metal targets it links with the firmware's memory map (the workspace root's
-//! `memory.x`, STM32F103RE); QEMU's `netduino2` machine runs that layout.
+//! For bare-metal targets it links with the firmware's memory map (the workspace's
+//! `link/memory.x`, STM32F103RE); QEMU's `netduino2` machine runs that layout.
 use std::{env, fs, path::PathBuf};
 
 use ekf_core::{Vec3, GRAVITY};
@@ -28,10 +28,10 @@ fn main() {
     fs::write(out.join("trace.bin"), pack(&text)).expect("write trace.bin");
 
     if env::var("CARGO_CFG_TARGET_OS").as_deref() == Ok("none") {
-        let root = manifest.parent().expect("workspace root");
-        println!("cargo:rustc-link-search={}", root.display());
+        let link = manifest.parent().expect("workspace root").join("link");
+        println!("cargo:rustc-link-search={}", link.display());
         println!("cargo:rustc-link-arg-bins=-Tlink.x");
-        println!("cargo:rerun-if-changed={}", root.join("memory.x").display());
+        println!("cargo:rerun-if-changed={}", link.join("memory.x").display());
         link_soft_float(); // as the firmware (tools/soft_float.rs)
     }
 }
