@@ -28,15 +28,17 @@ fn main() {
     fs::write(out.join("trace.bin"), pack(&text)).expect("write trace.bin");
 
     if env::var("CARGO_CFG_TARGET_OS").as_deref() == Ok("none") {
-        let link = manifest.parent().expect("workspace root").join("link");
-        println!("cargo:rustc-link-search={}", link.display());
+        let root = manifest.parent().expect("workspace root");
+        // `dfu` (scripts/qemu-fault-record --dfu): the firmware's DFU layout, code from
+        // 0x0800_3000 behind a bootloader (tools/memory_layout.rs).
+        link_memory_layout(root, env::var_os("CARGO_FEATURE_DFU").is_some());
         println!("cargo:rustc-link-arg-bins=-Tlink.x");
-        println!("cargo:rerun-if-changed={}", link.join("memory.x").display());
         link_soft_float(); // as the firmware (tools/soft_float.rs)
     }
 }
 
 include!("../tools/soft_float.rs");
+include!("../tools/memory_layout.rs");
 
 /// Columns by name (`#` and empty lines skipped); the trace comes from `host-tests simulate`
 /// or `host-tests` logging, which validate it. Errors here name the line.
