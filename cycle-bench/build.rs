@@ -1,5 +1,5 @@
 //! Generates the embedded benchmark trace (`$OUT_DIR/trace.rs`) and, for bare-metal targets,
-//! links with the firmware's memory map (the workspace root's `memory.x`, STM32F103RE).
+//! links with the firmware's memory map (the workspace's `link/memory.x`, STM32F103RE).
 //!
 //! The trace is deterministic (its own 64-bit LCG, `f64` arithmetic, values rounded to `f32`
 //! once) so the instruction counts of every benchmark step are reproducible bit for bit:
@@ -100,10 +100,10 @@ fn main() {
     println!("cargo:rerun-if-changed=build.rs");
 
     if env::var("CARGO_CFG_TARGET_OS").as_deref() == Ok("none") {
-        let root = manifest.parent().expect("workspace root");
-        println!("cargo:rustc-link-search={}", root.display());
+        let link = manifest.parent().expect("workspace root").join("link");
+        println!("cargo:rustc-link-search={}", link.display());
         println!("cargo:rustc-link-arg-bins=-Tlink.x");
-        println!("cargo:rerun-if-changed={}", root.join("memory.x").display());
+        println!("cargo:rerun-if-changed={}", link.join("memory.x").display());
         link_soft_float();
     } else {
         println!("cargo:rustc-env=AHRS_SOFTFLOAT_USED=host");

@@ -5,8 +5,8 @@
 //! conversions and axis maps, and embeds it. Record: `dt` (f32), six ADC mean counts (f32),
 //! three accelerometer counts (i16), all little-endian.
 //!
-//! For bare-metal targets it links with the firmware's memory map (the workspace root's
-//! `memory.x`, STM32F103RE); QEMU's `netduino2` machine runs that layout.
+//! For bare-metal targets it links with the firmware's memory map (the workspace's
+//! `link/memory.x`, STM32F103RE); QEMU's `netduino2` machine runs that layout.
 use std::{env, fs, path::PathBuf};
 
 use ekf_core::{Vec3, GRAVITY};
@@ -29,14 +29,16 @@ fn main() {
 
     if env::var("CARGO_CFG_TARGET_OS").as_deref() == Ok("none") {
         let root = manifest.parent().expect("workspace root");
-        println!("cargo:rustc-link-search={}", root.display());
+        // `dfu` (scripts/qemu-fault-record --dfu): the firmware's DFU layout, code from
+        // 0x0800_3000 behind a bootloader (tools/memory_layout.rs).
+        link_memory_layout(root, env::var_os("CARGO_FEATURE_DFU").is_some());
         println!("cargo:rustc-link-arg-bins=-Tlink.x");
-        println!("cargo:rerun-if-changed={}", root.join("memory.x").display());
         link_soft_float(); // as the firmware (tools/soft_float.rs)
     }
 }
 
 include!("../tools/soft_float.rs");
+include!("../tools/memory_layout.rs");
 
 /// Columns by name (`#` and empty lines skipped); the trace comes from `host-tests simulate`
 /// or `host-tests` logging, which validate it. Errors here name the line.

@@ -100,6 +100,40 @@ mod tests {
         assert!(t.len() <= 82, "{} characters", t.len());
     }
 
+    /// The report a first flash gives on a working board (docs/bring-up.md, step 4): no
+    /// settings record in flash yet, so the settings item (bits 16–17) warns and the whole
+    /// report is `WARN,10000`; with the depth input at a rail (no sensor, input pulled to a
+    /// rail) the depth item (bits 12–13) warns too: `WARN,11000`. A floating depth input that
+    /// reads mid-range passes (issue #27 point 4).
+    #[test]
+    fn a_first_flash_warns_for_the_settings() {
+        let first = Inputs {
+            hse: Some(HseCheck::Ok(8_000_000)),
+            vdda_v: Some(3.3),
+            ranks_aligned: true,
+            accel_g: Some([0.0, 0.0, 1.0]),
+            mag_id_ok: Some(true),
+            mag_ut: Some([20.0, 0.0, 40.0]),
+            xy_ref_v: Some(1.23),
+            z_ref_v: Some(1.5),
+            depth_v: Some((1.2, false)),
+            i2c_errors: 0,
+            bus_clears: 1,
+            last_clear: Some(Clear::Freed { clocks: 0 }),
+            settings_from_flash: false,
+            fault: None,
+        };
+        let s = selftest_reply("SELFTEST", &first).finish();
+        let body = text(&s).split('*').next().unwrap().to_owned();
+        assert_eq!(body, "$PINAR,OK,SELFTEST,WARN,10000,8000,3300,1000,45,1230,1500,1200,0,1");
+        let at_rail = Inputs { depth_v: Some((3.3, true)), ..first };
+        let s = selftest_reply("SELFTEST", &at_rail).finish();
+        assert!(text(&s).starts_with("$PINAR,OK,SELFTEST,WARN,11000,"), "{}", text(&s));
+        let saved = Inputs { settings_from_flash: true, ..first };
+        let s = selftest_reply("SELFTEST", &saved).finish();
+        assert!(text(&s).starts_with("$PINAR,OK,SELFTEST,PASS,00000,"), "{}", text(&s));
+    }
+
     #[test]
     fn nothing_measured_leaves_fields_empty() {
         let s = selftest_reply("SELFTEST", &Inputs::default()).finish();
