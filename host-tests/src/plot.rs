@@ -668,7 +668,6 @@ where
         if fig.init.is_some() {
             entries.push(("initialisation", INIT.stroke_width(10)));
         }
-        entries.push(("degrees against t (s)", WHITE.stroke_width(0)));
         let mut x = 20;
         for (label, style) in entries {
             head.draw(&PathElement::new(vec![(x, 52), (x + 40, 52)], style))?;
