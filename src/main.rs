@@ -482,7 +482,7 @@ mod firmware {
 
     /// The USB device's interrupt (and the filter's pend when it queued output): services the
     /// device, sends received lines to `command` (dropped and counted when the channel is
-    /// full), tells the queue whether a host has the port open, and moves the waiting output
+    /// full), tells the queue what the host did (configured, DTR), and moves the waiting output
     /// to the serial port, [`CHUNK`] bytes a lock, until the port takes no more.
     #[task(binds = USB_LP_CAN_RX0, priority = 1, local = [usb, usb_lines], shared = [rx, usb_out])]
     fn usb_console(mut cx: usb_console::Context) {
@@ -491,7 +491,7 @@ mod firmware {
         };
         let lines = &mut *cx.local.usb_lines;
         let mut dropped = 0u32;
-        let open = usb.poll(|line| {
+        let (configured, dtr) = usb.poll(|line| {
             if lines.try_send(line).is_err() {
                 dropped = dropped.saturating_add(1);
             }
@@ -501,9 +501,7 @@ mod firmware {
         }
         let mut chunk = [0u8; CHUNK];
         let mut n = cx.shared.usb_out.lock(|q| {
-            if q.is_open() != open {
-                q.set_open(open);
-            }
+            q.set_host(configured, dtr);
             q.peek(&mut chunk)
         });
         // Bounded: the queue holds USB_OUT_LEN bytes.
@@ -526,8 +524,8 @@ mod firmware {
     /// `sentences`, then its queued replies while the batch stays within `budget` bytes (what
     /// the USART sends in one filter period; one reply always goes when the batch is otherwise
     /// empty), its sentences dropped (counted) while the previous transfer runs; to the USB
-    /// queue its replies and the sentences, dropped (counted) while no host has the port open or
-    /// when they do not fit. Returns whether the USB task has something to send.
+    /// queue its replies and the sentences, dropped (counted) while no host has configured the
+    /// device or when they do not fit. Returns whether the USB task has something to send.
     fn transmit<'a, I>(
         tx: &mut DmaTx,
         sentences: I,
@@ -718,7 +716,7 @@ mod firmware {
                     let (usb_open, usb_closed, usb_full) =
                         cx.shared.usb_out.lock(|u| (u.is_open(), u.dropped_closed, u.dropped_full));
                     defmt::info!(
-                        "commands: rx errors {=u32}, lines dropped {=u32}, replies dropped USART {=u32} USB {=u32}; USB port open {=bool}, sentences dropped closed {=u32} full {=u32}",
+                        "commands: rx errors {=u32}, lines dropped {=u32}, replies dropped USART {=u32} USB {=u32}; USB configured {=bool}, sentences dropped unconfigured {=u32} full {=u32}",
                         rx_errors,
                         lines_dropped,
                         usart_replies,

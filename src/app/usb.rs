@@ -70,9 +70,9 @@ impl UsbConsole {
     }
 
     /// Services the USB device (enumeration, control requests, the bulk endpoints); every
-    /// command line received goes to `on_line`. Returns whether a host has the port open (the
-    /// device configured and DTR set, as terminal programs and `ahrs-tool` set it).
-    pub fn poll(&mut self, mut on_line: impl FnMut(Received)) -> bool {
+    /// command line received goes to `on_line`. Returns whether a host has configured the
+    /// device, and DTR (for [`UsbOut::set_host`](inemo_ahrs::console::UsbOut::set_host)).
+    pub fn poll(&mut self, mut on_line: impl FnMut(Received)) -> (bool, bool) {
         if self.dev.poll(&mut [&mut self.serial]) {
             let mut buf = [0u8; CHUNK];
             // Bounded: the port's receive buffer holds 128 bytes.
@@ -89,7 +89,7 @@ impl UsbConsole {
                 }
             }
         }
-        self.dev.state() == UsbDeviceState::Configured && self.serial.dtr()
+        (self.dev.state() == UsbDeviceState::Configured, self.serial.dtr())
     }
 
     /// Hands `bytes` to the serial port without waiting: how many it took (0 when its buffer

@@ -14,10 +14,16 @@
 //! - **Output**: [`fan_out`] hands every cycle's sentences to both ports: to the USART's batch
 //!   exactly as before (sentences, then the USART's replies while they fit the period's byte
 //!   budget), and to [`UsbOut`], a byte queue the USB task drains into the serial port. The USB
-//!   side never waits: while no host has the port open (DTR clear, or not configured) its
-//!   sentences and replies are dropped and counted; when the queue is full, a sentence that
-//!   does not fit is dropped (counted) and a reply waits for the next cycle. Nothing the USB
-//!   side does changes what the USART sends.
+//!   side never waits: while the device is not configured by a host its sentences and replies
+//!   are dropped and counted; when the queue is full (a host that has not opened the port
+//!   reads nothing) a sentence that does not fit is dropped (counted) and a reply waits for the
+//!   next cycle. A change of DTR (a program opening or closing the port on Linux or macOS)
+//!   empties the queue, so that the program starts with fresh sentences. Nothing the USB side
+//!   does changes what the USART sends.
+//!
+//! Why configured rather than DTR gates the output: `ahrs-tool` opens ports through the
+//! `serialport` crate, which on Windows opens them with DTR off (Linux raises DTR on every
+//! open); gating on DTR would leave a Windows host without output.
 
 use heapless::Deque;
 
@@ -176,7 +182,7 @@ pub trait UsartBatch {
 pub enum Offer {
     /// Queued whole.
     Queued,
-    /// No host has the port open: dropped.
+    /// No host has configured the device: dropped.
     Closed,
     /// Not enough room: nothing of it queued.
     Full,
@@ -190,7 +196,8 @@ pub struct UsbOut<const N: usize> {
     head: usize,
     len: usize,
     open: bool,
-    /// Sentences dropped because no host had the port open.
+    dtr: bool,
+    /// Sentences dropped because no host had configured the device.
     pub dropped_closed: u32,
     /// Sentences dropped because the queue was full (a host has the port open but does not
     /// read it, or reads it slower than the output rate).
@@ -206,23 +213,38 @@ impl<const N: usize> Default for UsbOut<N> {
 impl<const N: usize> UsbOut<N> {
     /// An empty queue, the port closed.
     pub const fn new() -> Self {
-        UsbOut { buf: [0; N], head: 0, len: 0, open: false, dropped_closed: 0, dropped_full: 0 }
+        UsbOut {
+            buf: [0; N],
+            head: 0,
+            len: 0,
+            open: false,
+            dtr: false,
+            dropped_closed: 0,
+            dropped_full: 0,
+        }
     }
 
-    /// Whether a host has the port open (the USB task: the device configured and DTR set).
-    /// Closing discards what was waiting, so that the next host to open the port starts with
-    /// fresh sentences.
-    pub fn set_open(&mut self, open: bool) {
-        if !open {
+    /// What the USB task sees of the host: whether it has configured the device, and DTR.
+    /// Output is queued while configured. Losing the configuration (unplugged, reset,
+    /// suspended) or a change of DTR (a program opened or closed the port) discards what was
+    /// waiting, so that the next reader starts with fresh sentences.
+    pub fn set_host(&mut self, configured: bool, dtr: bool) {
+        if !configured || dtr != self.dtr {
             self.head = 0;
             self.len = 0;
         }
-        self.open = open;
+        self.open = configured;
+        self.dtr = dtr && configured;
     }
 
-    /// True while a host has the port open.
+    /// True while a host has configured the device: output is queued.
     pub const fn is_open(&self) -> bool {
         self.open
+    }
+
+    /// DTR as last set (false while not configured).
+    pub const fn dtr(&self) -> bool {
+        self.dtr
     }
 
     /// Bytes waiting.
@@ -292,8 +314,8 @@ impl<const N: usize> UsbOut<N> {
 /// and their number returned; its replies wait.
 ///
 /// The USB port: first its replies, while they fit [`UsbOut`] (the rest wait; all are dropped
-/// and counted while the port is closed), then `sentences`, each queued whole or dropped and
-/// counted. The USB side is done after the USART side and cannot change it.
+/// and counted while the device is not configured), then `sentences`, each queued whole or
+/// dropped and counted. The USB side is done after the USART side and cannot change it.
 pub fn fan_out<'a, B, I, const R: usize, const U: usize>(
     usart: Option<&mut B>,
     sentences: I,

@@ -84,7 +84,7 @@ fn routes_reach_their_ports() {
 #[test]
 fn sentences_go_to_both_ports_when_usb_is_open() {
     let mut usb = UsbOut::<BIG>::new();
-    usb.set_open(true);
+    usb.set_host(true, true);
     let mut replies = Replies::<4>::new();
     let mut batch = VecBatch::new(BIG);
     let s = cycle_sentences();
@@ -115,7 +115,7 @@ fn closed_usb_port_drops_and_counts_and_usart_is_unchanged() {
 fn full_usb_queue_does_not_stop_usart_output() {
     // A host opened the port and reads nothing: the queue fills, USART2 goes on.
     let mut usb = UsbOut::<200>::new();
-    usb.set_open(true);
+    usb.set_host(true, true);
     let mut replies = Replies::<4>::new();
     let s = cycle_sentences();
     let per_cycle: String = s.iter().map(|x| x.as_str()).collect();
@@ -142,7 +142,7 @@ fn full_usb_queue_does_not_stop_usart_output() {
 #[test]
 fn full_usb_queue_keeps_replies_waiting_and_usart_replies_flow() {
     let mut usb = UsbOut::<100>::new();
-    usb.set_open(true);
+    usb.set_host(true, true);
     assert_eq!(usb.offer(&[b'x'; 90]), Offer::Queued);
     let mut replies = Replies::<4>::new();
     replies.push(sentence("PINAR,OK,VER,inemo-ahrs,0.1.0"), Route::Both);
@@ -163,7 +163,7 @@ fn full_usb_queue_keeps_replies_waiting_and_usart_replies_flow() {
 #[test]
 fn busy_usart_still_feeds_usb() {
     let mut usb = UsbOut::<BIG>::new();
-    usb.set_open(true);
+    usb.set_host(true, true);
     let mut replies = Replies::<4>::new();
     replies.push(sentence("PINAR,OK,A"), Route::Usart);
     let s = cycle_sentences();
@@ -196,7 +196,7 @@ fn usart_replies_keep_the_byte_budget() {
 #[test]
 fn a_reply_goes_to_the_port_its_command_came_from() {
     let mut usb = UsbOut::<BIG>::new();
-    usb.set_open(true);
+    usb.set_host(true, true);
     let mut replies = Replies::<4>::new();
     replies.push(sentence("PINAR,OK,FROM-USB"), Route::Usb);
     replies.push(sentence("PINAR,OK,FROM-USART"), Route::Usart);
@@ -246,7 +246,7 @@ fn a_command_from_usb_is_answered_on_usb_only() {
     let mut usart_lines = PortLines::new(Port::Usart);
     let mut replies = Replies::<4>::new();
     let mut usb = UsbOut::<BIG>::new();
-    usb.set_open(true);
+    usb.set_host(true, true);
     // Half a USART line first, then a whole USB command, then the rest of the USART line.
     let usart_cmd = cmd("PINAC,GET,filter.rate");
     let (head, tail) = usart_cmd.split_at(8);
@@ -269,22 +269,56 @@ fn a_command_from_usb_is_answered_on_usb_only() {
 }
 
 #[test]
-fn closing_the_port_discards_what_waits() {
+fn losing_the_configuration_discards_what_waits() {
     let mut usb = UsbOut::<64>::new();
     assert_eq!(usb.offer(b"abc"), Offer::Closed);
-    usb.set_open(true);
+    usb.set_host(true, true);
     assert_eq!(usb.offer(b"abc"), Offer::Queued);
-    usb.set_open(false);
+    // Unplugged, reset or suspended: whatever DTR was.
+    usb.set_host(false, true);
     assert!(usb.is_empty());
-    usb.set_open(true);
+    assert_eq!(usb.offer(b"xyz"), Offer::Closed);
+    usb.set_host(true, true);
     assert_eq!(usb.offer(b"def"), Offer::Queued);
     assert_eq!(read_all(&mut usb), "def");
 }
 
 #[test]
+fn a_change_of_dtr_discards_what_waits() {
+    let mut usb = UsbOut::<64>::new();
+    usb.set_host(true, false);
+    assert_eq!(usb.offer(b"old"), Offer::Queued);
+    // The same state again keeps it (the USB task reports it on every interrupt).
+    usb.set_host(true, false);
+    assert_eq!(usb.len(), 3);
+    // A program opens the port (DTR up): it starts with fresh output.
+    usb.set_host(true, true);
+    assert!(usb.is_empty());
+    assert_eq!(usb.offer(b"new"), Offer::Queued);
+    usb.set_host(true, true);
+    assert_eq!(read_all(&mut usb), "new");
+    usb.offer(b"left");
+    // It closes the port (DTR down).
+    usb.set_host(true, false);
+    assert!(usb.is_empty());
+}
+
+#[test]
+fn a_configured_port_without_dtr_gets_the_output() {
+    // serialport (ahrs-tool) on Windows opens a port with DTR off.
+    let mut usb = UsbOut::<BIG>::new();
+    usb.set_host(true, false);
+    let mut replies = Replies::<4>::new();
+    let s = cycle_sentences();
+    fan_out(Some(&mut VecBatch::new(BIG)), s.iter(), &mut replies, 1000, &mut usb);
+    assert_eq!(read_all(&mut usb), format!("{}{}", s[0].as_str(), s[1].as_str()));
+    assert_eq!(usb.dropped_closed, 0);
+}
+
+#[test]
 fn the_queue_takes_whole_parts_and_drains_in_order_across_the_wrap() {
     let mut usb = UsbOut::<10>::new();
-    usb.set_open(true);
+    usb.set_host(true, true);
     assert_eq!(usb.offer(b"0123456"), Offer::Queued);
     assert_eq!(usb.offer(b"789a"), Offer::Full, "nothing of a part that does not fit");
     assert_eq!(usb.len(), 7);
@@ -303,7 +337,7 @@ fn the_queue_takes_whole_parts_and_drains_in_order_across_the_wrap() {
 #[test]
 fn peek_takes_nothing_and_copies_at_most_its_buffer() {
     let mut usb = UsbOut::<64>::new();
-    usb.set_open(true);
+    usb.set_host(true, true);
     usb.offer(b"hello world");
     let mut small = [0u8; 4];
     assert_eq!(usb.peek(&mut small), 4);
