@@ -21,8 +21,8 @@ use usbd_serial::{SerialPort, USB_CLASS_CDC};
 /// driven high to connect. The one place the pin is named.
 pub type PullUp = PA10<Output<PushPull>>;
 
-/// Bytes waiting for the USB port: about 11 of the longest sentences, more than a cycle's
-/// output at the highest rate, so a host that reads every USB frame (1 ms) loses nothing.
+/// Bytes waiting for the USB port: 12 of the longest sentences (82 bytes), more than a cycle's
+/// output (at most 7 sentences and a reply), so a host that keeps reading loses nothing.
 pub const USB_OUT_LEN: usize = 1024;
 /// The queue the filter task fills and the USB task drains.
 pub type UsbQueue = UsbOut<USB_OUT_LEN>;
