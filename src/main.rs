@@ -387,8 +387,8 @@ mod firmware {
         }
         let usb_lines = lines.clone();
         // Last: the host may enumerate the device from now on (its interrupt is unmasked when
-        // init returns). D+ was off for all of init above (milliseconds, far more than the
-        // 2.5 µs a hub needs to see a disconnect).
+        // init returns). D+ was off for all of init above (the I²C and ADC set-up: far more than
+        // the few microseconds a hub needs to see a disconnect).
         if let Some(u) = usb.as_mut() {
             u.connect();
         }
