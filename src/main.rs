@@ -23,9 +23,10 @@
 //! fan-out of `inemo_ahrs::console`, drained into the serial port by `usb_console`, which
 //! `filter` pends when there is something to send).
 //!
-//! `usb_console` runs at priority 1, below the filter: USB traffic never delays a filter
-//! cycle. Its locks on the shared queue (ceiling 2) last a copy of at most 64 bytes; the
-//! serial port's writes and the device's requests run outside them. The USB device answers
+//! `usb_console` runs at priority 1, below the filter, which preempts it at once. Its locks on
+//! the shared queue (ceiling 2) last a copy of at most 64 bytes; the serial port's writes and
+//! the device's requests run outside them. (`stm32-usbd` masks all interrupts around each of
+//! its register and packet-memory accesses, a 64-byte packet copy at most: `docs/firmware.md`.) The USB device answers
 //! the host with NAKs until its task runs, so a few milliseconds of waiting behind the filter
 //! or the command task cost the host retries, not errors.
 //! TIM3 triggers the ADC scans in hardware; DMA1 channel 7 sends the sentences without the CPU.
