@@ -62,6 +62,12 @@ pub const LED_PIN: &str = "PB9, active high";
 pub const USART: &str = "USART2: TX PA2, RX PA3";
 /// Output baud rate, bit/s.
 pub const USART_BAUD: u32 = 115_200;
+/// USB (the bench console, CDC-ACM): D− PA11, D+ PA12, and the D+ pull-up switched by PA10,
+/// high = connected. Source: ST's iNEMO firmware V3.2.1 (2010), `iNEMO_usb_common.h`
+/// (`iNEMO_USB_DISCONNECT` GPIOA, `iNEMO_USB_DISCONNECT_PIN` GPIO_Pin_10) and `virtual_com.c`
+/// (`USB_Cable_Config(ENABLE)` sets the pin). Not verified on a board. The firmware names the
+/// pin in one place, `app::usb::PullUp`.
+pub const USB_PINS: &str = "USB: D- PA11, D+ PA12, D+ pull-up switched by PA10 (high = on)";
 
 /// External crystal, Hz (8 MHz HSE; the firmware falls back to the internal HSI if it fails).
 pub const HSE_HZ: u32 = 8_000_000;

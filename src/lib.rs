@@ -11,6 +11,7 @@
 pub mod adc;
 pub mod board;
 pub mod command;
+pub mod console;
 #[cfg(test)]
 mod fault_injection;
 pub mod lsm303dlh;

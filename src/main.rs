@@ -8,15 +8,27 @@
 //! | `adc_frame` | hardware, DMA1_CHANNEL1 | 3 | copies the finished ADC frame (1 kHz) into the shared `Averager` |
 //! | `usart2_rx` | hardware, USART2 (RXNE) | 4 | received bytes → `LineAssembler`; complete lines queued for `command` |
 //! | `filter` | async, every 1/filter_rate_hz (SysTick monotonic) | 2 | applies pending command actions, reads the LSM303DLH, takes the ADC mean, runs `Pipeline::step` and `Device::on_cycle`, starts the USART DMA (sentences + queued replies), feeds the watchdog |
-//! | `command` | async, spawned per received line | 1 | `Device::handle` (may write the settings flash), queues the reply and the action |
+//! | `usb_console` | hardware, USB_LP_CAN_RX0 | 1 | polls the USB device (enumeration, CDC-ACM requests); received bytes → its own `LineAssembler`, complete lines queued for `command`; the waiting output → the serial port |
+//! | `command` | async, spawned per received line | 1 | `Device::handle` (may write the settings flash), queues the reply for the port the line came from, and the action |
 //! | `blink` | async, 50 ms slots | 1 | LED pattern from the status the filter reported |
 //!
 //! Messages: `adc_frame` → `filter` through the shared [`AdcShared`](app::AdcShared) (frames
 //! averaged in place, lost frames and DMA errors counted); `filter` → `blink` through the
 //! shared [`Health`](app::led::Health) (union of the cycles' status words and a cycle count);
-//! `usart2_rx` → `command` through an `rtic-sync` channel of received lines;
-//! `command` → `filter` through the shared [`CommandState`](app::commands::CommandState)
-//! (the `Device`, the replies waiting for the transmitter and the pending actions).
+//! `usart2_rx` and `usb_console` → `command` through an `rtic-sync` channel of received lines,
+//! each tagged with its port; `command` → `filter` through the shared
+//! [`CommandState`](app::commands::CommandState) (the `Device`, the replies waiting for each
+//! port and the pending actions); `filter` → `usb_console` through the shared
+//! [`UsbQueue`](app::usb::UsbQueue) (the sentences and replies for the USB port, filled by the
+//! fan-out of `inemo_ahrs::console`, drained into the serial port by `usb_console`, which
+//! `filter` pends when there is something to send).
+//!
+//! `usb_console` runs at priority 1, below the filter, which preempts it at once. Its locks on
+//! the shared queue (ceiling 2) last a copy of at most 64 bytes; the serial port's writes and
+//! the device's requests run outside them. (`stm32-usbd` masks all interrupts around each of
+//! its register and packet-memory accesses, a 64-byte packet copy at most: `docs/firmware.md`.) The USB device answers
+//! the host with NAKs until its task runs, so a few milliseconds of waiting behind the filter
+//! or the command task cost the host retries, not errors.
 //! TIM3 triggers the ADC scans in hardware; DMA1 channel 7 sends the sentences without the CPU.
 //! The independent watchdog is fed only at the end of a healthy filter cycle (see `filter`).
 //!
@@ -66,7 +78,7 @@ mod firmware {
     };
     // The types of the command layer's local resources are named in both variants (RTIC's
     // generated code names them even when their `#[cfg]` is off).
-    use inemo_ahrs::command::LineAssembler;
+    use inemo_ahrs::console::{self, Port, PortLines};
     use inemo_ahrs::{
         command::Device,
         persist::{self, Source},
@@ -76,25 +88,28 @@ mod firmware {
         dma::DmaExt,
         gpio::{GpioExt, Output, PinState, PushPull, PB9},
         i2c::{BlockingI2c, DutyCycle, Mode},
+        pac::Interrupt,
         serial::{Config, Serial},
         time::{Bps, Hertz},
+        usb::UsbBusType,
     };
     use stm32f1xx_hal::{pac::USART2, serial::Rx};
 
-    use crate::app::commands::{CommandState, RxStats, LINE_SLOTS, REPLY_SLOTS};
+    use crate::app::commands::{CommandState, Received, RxStats, LINE_SLOTS, REPLY_SLOTS};
     use crate::app::settings_flash::SettingsFlash;
     use crate::app::{
         adc_scan::{self, AdcPins, AdcScan},
         clocks, i2c_clock_hz,
         imu::{self, Imu},
         uart_tx::{DmaTx, TX_BUF_LEN},
+        usb::{UsbConsole, UsbQueue, CHUNK},
         watchdog::Watchdog,
         AdcShared,
     };
-    use heapless::Deque;
-    use inemo_ahrs::command::LineEvent;
+    use inemo_ahrs::console::{Replies, Route};
     use rtic_sync::channel::{Receiver, Sender};
     use rtic_sync::make_channel;
+    use usb_device::bus::UsbBusAllocator;
 
     /// SysTick rate of the monotonic, Hz (the literal in `systick_monotonic!` must match).
     const MONO_HZ: u32 = 10_000;
@@ -114,6 +129,7 @@ mod firmware {
         health: Health,
         rx: RxStats,
         cmd: CommandState,
+        usb_out: UsbQueue,
     }
 
     #[local]
@@ -126,7 +142,9 @@ mod firmware {
         sysclk_hz: u32,
         board: selftest::Inputs,
         serial_rx: Rx<USART2>,
-        lines: Sender<'static, LineEvent, LINE_SLOTS>,
+        lines: Sender<'static, Received, LINE_SLOTS>,
+        usb: Option<UsbConsole>,
+        usb_lines: Sender<'static, Received, LINE_SLOTS>,
         flash: SettingsFlash,
         watchdog: Watchdog,
     }
@@ -134,6 +152,7 @@ mod firmware {
     #[init(local = [
         adc_buf: [[u16; SCAN_LEN]; 2] = [[0; SCAN_LEN]; 2],
         tx_buf: [u8; TX_BUF_LEN] = [0; TX_BUF_LEN],
+        usb_bus: Option<UsbBusAllocator<UsbBusType>> = None,
     ])]
     fn init(cx: init::Context) -> (Shared, Local) {
         let mut core = cx.core;
@@ -178,6 +197,10 @@ mod firmware {
         let _lpr_st = gpiob.pb1.into_push_pull_output_with_state(&mut gpiob.crl, PinState::Low);
         let _ly_st = gpiob.pb14.into_push_pull_output_with_state(&mut gpiob.crh, PinState::Low);
         let led = gpiob.pb9.into_push_pull_output_with_state(&mut gpiob.crh, PinState::High);
+        // The USB D+ pull-up off (PA10 low) from here: a host sees the device only once it is
+        // ready, at the end of init, and sees a new device after every reset.
+        let usb_pull_up =
+            gpioa.pa10.into_push_pull_output_with_state(&mut gpioa.crh, PinState::Low);
 
         let dma1 = dp.DMA1.split(&mut rcc);
 
@@ -323,6 +346,15 @@ mod firmware {
             ),
             Source::Defaults => defmt::println!("settings: no valid flash record, defaults"),
         }
+        // The USB serial console: its 48 MHz clock is PLL/1.5, valid only with the PLL at
+        // 72 MHz (the crystal); running from HSI at 64 MHz there is no USB (D+ stays off).
+        let mut usb = if clocks.usbclk_valid() {
+            Some(UsbConsole::new(dp.USB, gpioa.pa11, gpioa.pa12, usb_pull_up, cx.local.usb_bus))
+        } else {
+            defmt::warn!("no USB console: the USB clock needs the crystal (SYSCLK 72 MHz)");
+            None
+        };
+
         // The boot sentence says where the settings came from.
         let settings_field = Some(match loaded.source {
             Source::Flash { page, .. } => page.name(),
@@ -350,9 +382,16 @@ mod firmware {
             panic!("blink task spawned twice");
         }
         // Received lines: the RX interrupt sends, the command task waits on them.
-        let (lines, line_rx) = make_channel!(LineEvent, LINE_SLOTS);
+        let (lines, line_rx) = make_channel!(Received, LINE_SLOTS);
         if command::spawn(line_rx).is_err() {
             panic!("command task spawned twice");
+        }
+        let usb_lines = lines.clone();
+        // Last: the host may enumerate the device from now on (its interrupt is unmasked when
+        // init returns). D+ was off for all of init above (the I²C and ADC set-up: far more than
+        // the few microseconds a hub needs to see a disconnect).
+        if let Some(u) = usb.as_mut() {
+            u.connect();
         }
 
         (
@@ -361,6 +400,7 @@ mod firmware {
                 health: Health::default(),
                 rx: RxStats::default(),
                 cmd: CommandState::new(device),
+                usb_out: UsbQueue::new(),
             },
             Local {
                 adc_scan,
@@ -372,6 +412,8 @@ mod firmware {
                 board,
                 serial_rx,
                 lines,
+                usb,
+                usb_lines,
                 flash,
                 watchdog,
             },
@@ -394,7 +436,7 @@ mod firmware {
 
     /// Received bytes: into the line assembler; a complete line goes to `command` through the
     /// channel (dropped and counted when it is full).
-    #[task(binds = USART2, priority = 4, local = [serial_rx, lines, assembler: LineAssembler = LineAssembler::new()], shared = [rx])]
+    #[task(binds = USART2, priority = 4, local = [serial_rx, lines, assembler: PortLines = PortLines::new(Port::Usart)], shared = [rx])]
     fn usart2_rx(mut cx: usart2_rx::Context) {
         for _ in 0..RX_READS_PER_IRQ {
             if !cx.local.serial_rx.is_rx_not_empty() && !rx_error() {
@@ -402,8 +444,8 @@ mod firmware {
             }
             match cx.local.serial_rx.read() {
                 Ok(byte) => {
-                    if let Some(event) = cx.local.assembler.push(byte) {
-                        if cx.local.lines.try_send(event).is_err() {
+                    if let Some(line) = cx.local.assembler.push(byte) {
+                        if cx.local.lines.try_send(line).is_err() {
                             cx.shared.rx.lock(|rx| rx.dropped = rx.dropped.saturating_add(1));
                         }
                     }
@@ -428,47 +470,81 @@ mod firmware {
     /// filter task. `SAVE` writes the flash here (the CPU stalls for the erase, a few filter
     /// cycles late).
     #[task(priority = 1, local = [flash], shared = [cmd])]
-    async fn command(
-        mut cx: command::Context,
-        mut lines: Receiver<'static, LineEvent, LINE_SLOTS>,
-    ) {
-        while let Ok(event) = lines.recv().await {
+    async fn command(mut cx: command::Context, mut lines: Receiver<'static, Received, LINE_SLOTS>) {
+        while let Ok(line) = lines.recv().await {
             let flash = &mut *cx.local.flash;
             cx.shared.cmd.lock(|c| {
-                let response = c.device.handle(&event, flash);
-                c.record(response.reply, response.action);
+                let response = c.device.handle(&line.event, flash);
+                // The reply goes back to the port the command came from.
+                c.record(response.reply, line.reply_route(), response.action);
             });
         }
     }
 
-    /// Sends the cycle's `sentences`, then queued `replies` while the batch stays within
-    /// `budget` bytes (what the USART sends in one filter period; one reply always goes when
-    /// the batch is otherwise empty). While the previous transfer runs the sentences are
-    /// dropped (counted) and the replies wait.
-    fn transmit<'a>(
-        tx: &mut DmaTx,
-        sentences: impl Iterator<Item = &'a Sentence>,
-        replies: &mut Deque<Sentence, REPLY_SLOTS>,
-        budget: usize,
-    ) {
-        let Some(mut batch) = tx.begin() else {
-            tx.dropped = tx.dropped.saturating_add(sentences.count() as u32);
+    /// The USB device's interrupt (and the filter's pend when it queued output): services the
+    /// device, sends received lines to `command` (dropped and counted when the channel is
+    /// full), tells the queue what the host did (configured, DTR), and moves the waiting output
+    /// to the serial port, [`CHUNK`] bytes a lock, until the port takes no more.
+    #[task(binds = USB_LP_CAN_RX0, priority = 1, local = [usb, usb_lines], shared = [rx, usb_out])]
+    fn usb_console(mut cx: usb_console::Context) {
+        let Some(usb) = cx.local.usb.as_mut() else {
             return;
         };
-        for s in sentences {
-            if !batch.push(s.as_bytes()) {
-                batch.count_dropped();
+        let lines = &mut *cx.local.usb_lines;
+        let mut dropped = 0u32;
+        let (configured, dtr) = usb.poll(|line| {
+            if lines.try_send(line).is_err() {
+                dropped = dropped.saturating_add(1);
             }
+        });
+        if dropped > 0 {
+            cx.shared.rx.lock(|rx| rx.dropped = rx.dropped.saturating_add(dropped));
         }
-        while let Some(reply) = replies.front() {
-            let part = reply.as_bytes();
-            let fits = batch.is_empty() || batch.len() + part.len() <= budget;
-            if !fits || !batch.push(part) {
+        let mut chunk = [0u8; CHUNK];
+        let mut n = cx.shared.usb_out.lock(|q| {
+            q.set_host(configured, dtr);
+            q.peek(&mut chunk)
+        });
+        // Bounded: the queue holds USB_OUT_LEN bytes.
+        for _ in 0..crate::app::usb::USB_OUT_LEN / CHUNK {
+            if n == 0 {
                 break;
             }
-            replies.pop_front();
+            let taken = usb.write(chunk.get(..n).unwrap_or(&[]));
+            if taken == 0 {
+                break;
+            }
+            n = cx.shared.usb_out.lock(|q| {
+                q.consume(taken);
+                q.peek(&mut chunk)
+            });
         }
-        batch.start();
+    }
+
+    /// The cycle's output to both ports (`inemo_ahrs::console::fan_out`): to USART2 the
+    /// `sentences`, then its queued replies while the batch stays within `budget` bytes (what
+    /// the USART sends in one filter period; one reply always goes when the batch is otherwise
+    /// empty), its sentences dropped (counted) while the previous transfer runs; to the USB
+    /// queue its replies and the sentences, dropped (counted) while no host has configured the
+    /// device or when they do not fit. Returns whether the USB task has something to send.
+    fn transmit<'a, I>(
+        tx: &mut DmaTx,
+        sentences: I,
+        replies: &mut Replies<REPLY_SLOTS>,
+        budget: usize,
+        usb: &mut UsbQueue,
+    ) -> bool
+    where
+        I: IntoIterator<Item = &'a Sentence>,
+        I::IntoIter: Clone,
+    {
+        let mut batch = tx.begin();
+        let busy = console::fan_out(batch.as_mut(), sentences, replies, budget, usb);
+        if let Some(batch) = batch {
+            batch.start();
+        }
+        tx.dropped = tx.dropped.saturating_add(busy);
+        usb.is_open() && !usb.is_empty()
     }
 
     /// Filter timing for a rate: (period in ticks, nominal dt s, cycles between log lines,
@@ -497,7 +573,7 @@ mod firmware {
     /// A cycle is healthy when it runs to its end and the estimator has not reported a health
     /// reset in each of the last `HEALTH_RESET_STORM` cycles (`supervision::watchdog`); only
     /// then is the watchdog fed.
-    #[task(priority = 2, local = [imu, pipeline, tx, sysclk_hz, watchdog, board], shared = [adc, health, rx, cmd])]
+    #[task(priority = 2, local = [imu, pipeline, tx, sysclk_hz, watchdog, board], shared = [adc, health, rx, cmd, usb_out])]
     async fn filter(mut cx: filter::Context) {
         let (mut period, mut nominal_dt, mut stats_every, mut budget) =
             timing(cx.local.pipeline.settings().filter_rate_hz);
@@ -591,24 +667,33 @@ mod firmware {
                 let step = pipeline.step(&inputs);
                 let tx = &mut *cx.local.tx;
                 let board = *cx.local.board;
-                cx.shared.cmd.lock(|c| {
+                let usb_out = &mut cx.shared.usb_out;
+                let usb_pending = cx.shared.cmd.lock(|c| {
                     c.device.set_heading_ref(step.heading_ref);
                     c.device.set_board(board);
                     if cycle == 0 {
                         // The boot's self-test report, as `SELFTEST` replies.
+                        // (Both ports: it answers no command.)
                         c.record(
                             Some(inemo_ahrs::command::selftest_reply("SELFTEST", &board).finish()),
+                            Route::Both,
                             None,
                         );
                     }
                     let mut out = c.device.on_cycle(&inputs, &sample, step.attitude);
-                    c.record(out.reply.take(), out.action.take());
-                    if raw {
-                        transmit(tx, out.raw_sentences(), &mut c.replies, budget);
-                    } else {
-                        transmit(tx, step.sentences.iter(), &mut c.replies, budget);
-                    }
+                    // A cycle's reply (the end of a calibration) answers no line: both ports.
+                    c.record(out.reply.take(), Route::Both, out.action.take());
+                    usb_out.lock(|usb| {
+                        if raw {
+                            transmit(tx, out.raw_sentences(), &mut c.replies, budget, usb)
+                        } else {
+                            transmit(tx, step.sentences.iter(), &mut c.replies, budget, usb)
+                        }
+                    })
                 });
+                if usb_pending {
+                    rtic::pend(Interrupt::USB_LP_CAN_RX0);
+                }
                 cx.shared.health.lock(|h| h.record(step.status));
                 step
             };
@@ -627,12 +712,19 @@ mod firmware {
                 {
                     let (rx_errors, lines_dropped) =
                         cx.shared.rx.lock(|rx| (rx.errors, rx.dropped));
-                    let replies_dropped = cx.shared.cmd.lock(|c| c.replies_dropped);
+                    let (usart_replies, usb_replies) =
+                        cx.shared.cmd.lock(|c| (c.replies.usart_dropped, c.replies.usb_dropped));
+                    let (usb_open, usb_closed, usb_full) =
+                        cx.shared.usb_out.lock(|u| (u.is_open(), u.dropped_closed, u.dropped_full));
                     defmt::info!(
-                        "commands: rx errors {=u32}, lines dropped {=u32}, replies dropped {=u32}",
+                        "commands: rx errors {=u32}, lines dropped {=u32}, replies dropped USART {=u32} USB {=u32}; USB configured {=bool}, sentences dropped unconfigured {=u32} full {=u32}",
                         rx_errors,
                         lines_dropped,
-                        replies_dropped
+                        usart_replies,
+                        usb_replies,
+                        usb_open,
+                        usb_closed,
+                        usb_full
                     );
                 }
                 defmt::info!(

@@ -44,7 +44,7 @@ pub struct Sentences {
 
 impl Sentences {
     /// The sentences, in order.
-    pub fn iter(&self) -> impl Iterator<Item = &Sentence> {
+    pub fn iter(&self) -> impl Iterator<Item = &Sentence> + Clone {
         self.items.iter().flatten()
     }
 }

@@ -1,16 +1,20 @@
-//! The command path's shared state: the received lines go from the USART2 RX interrupt to
-//! the command task through an `rtic-sync` channel ([`LINE_SLOTS`] deep, created in `init`);
-//! the [`Device`], with the replies (a `heapless` queue) and actions waiting for the filter
-//! task, is shared between the command and filter tasks. A line or reply that finds its queue
-//! full is dropped and counted.
+//! The command path's shared state: the received lines go from the USART2 RX interrupt and
+//! the USB task to the command task through one `rtic-sync` channel ([`LINE_SLOTS`] deep,
+//! created in `init`), each tagged with its port ([`Received`]); the [`Device`], with the
+//! replies (a queue per port, [`Replies`]) and actions waiting for the filter task, is shared
+//! between the command and filter tasks. A line or reply that finds its queue full is dropped
+//! and counted.
 
-use heapless::Deque;
 use inemo_ahrs::command::{Action, Device};
+use inemo_ahrs::console::{Replies, Route};
 use inemo_ahrs::nmea::Sentence;
+
+/// What the command channel carries.
+pub use inemo_ahrs::console::Received;
 
 /// Lines the RX interrupt can queue before the command task takes them.
 pub const LINE_SLOTS: usize = 4;
-/// Replies waiting for the transmitter.
+/// Replies waiting for each port's transmitter.
 pub const REPLY_SLOTS: usize = 4;
 
 /// The RX interrupt's counters.
@@ -18,7 +22,7 @@ pub const REPLY_SLOTS: usize = 4;
 pub struct RxStats {
     /// USART receive errors (overrun, framing, noise, parity).
     pub errors: u32,
-    /// Lines dropped because the command task's channel was full.
+    /// Lines (from either port) dropped because the command task's channel was full.
     pub dropped: u32,
 }
 
@@ -56,29 +60,21 @@ pub struct CommandState {
     pub device: Device,
     /// Actions for the filter task.
     pub pending: Pending,
-    /// Replies for the transmitter (sent by the filter task with its sentences).
-    pub replies: Deque<Sentence, REPLY_SLOTS>,
-    /// Replies dropped because the queue was full.
-    pub replies_dropped: u32,
+    /// Replies for the transmitters (sent by the filter task with its sentences).
+    pub replies: Replies<REPLY_SLOTS>,
 }
 
 impl CommandState {
     /// The state for a freshly booted `device`.
     pub fn new(device: Device) -> Self {
-        CommandState {
-            device,
-            pending: Pending::default(),
-            replies: Deque::new(),
-            replies_dropped: 0,
-        }
+        CommandState { device, pending: Pending::default(), replies: Replies::new() }
     }
 
-    /// Queues a reply and records an action, as a command or a cycle produced them.
-    pub fn record(&mut self, reply: Option<Sentence>, action: Option<Action>) {
+    /// Queues a reply for the ports of `route` and records an action, as a command or a
+    /// cycle produced them.
+    pub fn record(&mut self, reply: Option<Sentence>, route: Route, action: Option<Action>) {
         if let Some(r) = reply {
-            if self.replies.push_back(r).is_err() {
-                self.replies_dropped = self.replies_dropped.saturating_add(1);
-            }
+            self.replies.push(r, route);
         }
         if let Some(a) = action {
             self.pending.add(a);

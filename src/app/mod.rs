@@ -1,6 +1,6 @@
 //! Board glue used by the RTIC application in `main.rs` (bare-metal targets only): the clock
-//! tree, the ADC scan, USART transmission, the LSM303DLH's bus, the command queues and the
-//! settings flash, the independent watchdog and the panic handler.
+//! tree, the ADC scan, USART transmission, the USB serial console, the LSM303DLH's bus, the
+//! command queues and the settings flash, the independent watchdog and the panic handler.
 //! The decisions (LED pattern, watchdog feeding, reset cause, sensor retries) are the
 //! library's `inemo_ahrs::supervision`.
 
@@ -13,6 +13,7 @@ mod panic;
 pub mod settings_flash;
 pub mod stack;
 pub mod uart_tx;
+pub mod usb;
 pub mod watchdog;
 
 use inemo_ahrs::adc::{vdda_from_vrefint, AdcMean, AdcScale, Averager, Rails};

@@ -9,6 +9,7 @@
 
 use core::sync::atomic::{compiler_fence, Ordering};
 
+use inemo_ahrs::console::UsartBatch;
 use inemo_ahrs::nmea::MAX_SENTENCE_LEN;
 use inemo_ahrs::pipeline::MAX_SENTENCES;
 use stm32f1xx_hal::serial::TxDma2;
@@ -91,19 +92,13 @@ pub struct Batch<'t> {
     len: usize,
 }
 
-impl Batch<'_> {
-    /// Bytes in the batch so far.
-    pub fn len(&self) -> usize {
+/// What the console's fan-out fills (`inemo_ahrs::console::fan_out`).
+impl UsartBatch for Batch<'_> {
+    fn len(&self) -> usize {
         self.len
     }
 
-    /// True when nothing was added.
-    pub fn is_empty(&self) -> bool {
-        self.len == 0
-    }
-
-    /// Appends `part` if it fits the buffer (else leaves the batch as it is: false).
-    pub fn push(&mut self, part: &[u8]) -> bool {
+    fn push(&mut self, part: &[u8]) -> bool {
         match self.tx.buf.get_mut(self.len..self.len + part.len()) {
             Some(dst) => {
                 dst.copy_from_slice(part);
@@ -114,11 +109,12 @@ impl Batch<'_> {
         }
     }
 
-    /// Counts a part that was not added.
-    pub fn count_dropped(&mut self) {
+    fn count_dropped(&mut self) {
         self.tx.dropped = self.tx.dropped.saturating_add(1);
     }
+}
 
+impl Batch<'_> {
     /// Starts the transfer (nothing when the batch is empty). Returns whether it started.
     pub fn start(self) -> bool {
         let len = self.len;

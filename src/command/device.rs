@@ -125,7 +125,7 @@ pub struct CycleOutput {
 
 impl CycleOutput {
     /// The raw sentences, in sending order.
-    pub fn raw_sentences(&self) -> impl Iterator<Item = &Sentence> {
+    pub fn raw_sentences(&self) -> impl Iterator<Item = &Sentence> + Clone {
         self.raw.iter().flatten()
     }
 }
