@@ -41,8 +41,8 @@
 use crate::board;
 
 /// `up − down`, counts, at or above which the pin is taken as floating: half the full scale
-/// (2048 of 4096 codes; module documentation).
-pub const FLOATING_SPREAD_COUNTS: u16 = (board::ADC_FULL_SCALE + 1) / 2;
+/// (2048, above half of 4095; module documentation).
+pub const FLOATING_SPREAD_COUNTS: u16 = board::ADC_FULL_SCALE / 2 + 1;
 
 /// The depth channel read with each pull on.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -37,8 +37,8 @@ pub const fn max_ticks_lost(stall_us: u32, tick_hz: u32) -> u32 {
 
 /// Ticks the monotonic fell behind the cycle counter over an interval: `elapsed_cycles` of the
 /// cycle counter (less than 2³² cycles: 59 s at 72 MHz), `cycles_per_tick` (SysTick's reload
-/// + 1), `elapsed_ticks` counted by the monotonic. 0 when none was lost; a loss of L reads
-/// L or L − 1 (the ticks are whole, the cycles not).
+/// plus one), `elapsed_ticks` counted by the monotonic. 0 when none was lost; a loss of L
+/// reads L or L − 1 (the ticks are whole, the cycles not).
 pub fn ticks_lost(elapsed_cycles: u32, cycles_per_tick: u32, elapsed_ticks: u32) -> u32 {
     (elapsed_cycles / cycles_per_tick.max(1)).saturating_sub(elapsed_ticks)
 }
