@@ -3,7 +3,8 @@
 # stand-in `probe-rs` on PATH that logs its arguments (`list` prints no probe, or one probe as
 # probe-rs 0.2x does: "[0]: STLink V2 -- 0483:3748:... (ST-LINK)"; every other command fails,
 # so a flash attempt would show in the log and in the exit status). Checked:
-#   - a failed build says "hil: build failed: ..." and exits 1, before any probe is asked
+#   - a failed build (`--build-only`, as CI runs it) says "hil: build failed: ..." and exits 1,
+#     before any probe is asked
 #     (the build made to fail for real: an option rustc does not know, through RUSTFLAGS);
 #   - no probe: "hil: not run: no probe attached", exit 3, nothing flashed;
 #   - probe-rs not installed: the same, naming the install command;
@@ -61,7 +62,7 @@ run port-without-value 2 "$hil" --port
 says port-without-value "hil: --port needs a serial port"
 
 # A failed build: said, exit 1, the probe never asked.
-run build-fails 1 env PATH="$t/bin:$PATH" RUSTFLAGS=--hil-test-unknown-option "$hil" --port /dev/null
+run build-fails 1 env PATH="$t/bin:$PATH" RUSTFLAGS=--hil-test-unknown-option "$hil" --build-only
 says build-fails "hil: build failed: the firmware image"
 probe_calls build-fails ""
 
