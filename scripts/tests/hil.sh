@@ -10,7 +10,9 @@
 #   - probe-rs not installed: the same, naming the install command;
 #   - a probe but no serial port (neither --port nor HIL_PORT), or a port that does not
 #     exist: "hil: not run: ..." naming it, exit 3, nothing flashed;
-#   - an unknown argument, or --port without a value: exit 2.
+#   - an unknown argument, or --port without a value: exit 2;
+#   - stage 1's checks against the device emulator on a pty (below), the flash and resets
+#     stood in for.
 # The builds are real (warm after `scripts/hil --build-only`, which scripts/test-all runs first).
 set -uo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)
@@ -34,6 +36,7 @@ case "$1" in
       echo "No debug probes were found."
     fi
     exit 0 ;;
+  download|reset|run) [ "${FAKE_FLASH:-0}" = 1 ] && exit 0 ;;&
   *) echo "stand-in probe-rs: '$1' is not expected here" >&2; exit 99 ;;
 esac
 FAKE
@@ -89,6 +92,49 @@ probe_calls no-port "list"
 run missing-port 3 env PATH="$t/bin:$PATH" FAKE_PROBE=1 HIL_PORT="$t/ttyNONE" "$hil"
 says missing-port "hil: not run: serial port $t/ttyNONE does not exist"
 probe_calls missing-port "list"
+
+# Stage 1 against the device emulator on a pseudo-terminal (`ahrs-tool emulate --pty`: the
+# firmware's library with simulated sensors, answering on the pty as the board on its port),
+# the stand-in's download, reset and run succeeding without doing anything. The emulator does
+# not restart on a reset and measures nothing: stage 1 must find no boot sentence and a
+# SELFTEST that is FAIL, and pass VER, the SET/GET round trip, the $PINAH rate (10 Hz), SAVE
+# and the value after the "reset"; then stage 2 runs, and the exit is 1 with 3 failures.
+tool="${CARGO_TARGET_DIR:-$root/target}/debug/ahrs-tool"
+if (cd "$root" && cargo build -q --locked -p ahrs-tool); then
+  "$tool" emulate --pty >"$t/emu.out" 2>&1 &
+  emu=$!
+  pty=""
+  for _ in $(seq 100); do
+    pty=$(head -n1 "$t/emu.out" 2>/dev/null)
+    [[ "$pty" == /dev/* ]] && break
+    sleep 0.1
+  done
+  if [[ "$pty" == /dev/* ]]; then
+    run emulator 1 env PATH="$t/bin:$PATH" FAKE_PROBE=1 FAKE_FLASH=1 "$hil" --port "$pty"
+    says emulator "hil: FAILED: no boot sentence \$PINAB with version"
+    says emulator "hil: ok: VER: \$PINAR,OK,VER,inemo-ahrs,"
+    says emulator "hil: FAILED: SELFTEST is not PASS or WARN: \$PINAR,OK,SELFTEST,FAIL,"
+    says emulator "hil: ok: SET/GET mag.declination: "
+    grep -Eq '^hil: ok: (9[5-9]|10[0-6]) \$PINAH in 10 s at output.rate 10 Hz$' "$t/emulator.out" \
+      || fail "emulator: the \$PINAH count: $(grep PINAH "$t/emulator.out")"
+    says emulator "hil: ok: SAVE: \$PINAR,OK,SAVE,"
+    says emulator "hil: ok: after SAVE and a reset mag.declination reads 12.5"
+    says emulator "hil: 3 check(s) failed"
+    fw="${CARGO_TARGET_DIR:-$root/target}/thumbv7m-none-eabi/release/inemo-ahrs"
+    suite=$(sed -n 's/^hil: on-target suite built: //p' "$t/emulator.out")
+    probe_calls emulator "list
+download --chip STM32F103RE $fw
+reset --chip STM32F103RE
+reset --chip STM32F103RE
+run --chip STM32F103RE $suite"
+  else
+    fail "the emulator gave no pseudo-terminal: $(cat "$t/emu.out")"
+  fi
+  kill "$emu" 2>/dev/null
+  wait "$emu" 2>/dev/null
+else
+  fail "cargo build -p ahrs-tool"
+fi
 
 if [ "$failures" -gt 0 ]; then
   echo "hil test: $failures failure(s)" >&2
