@@ -66,6 +66,7 @@ mod firmware {
     use ekf_core::ImuSample;
     use inemo_ahrs::supervision::{
         clock_check::HseCheck,
+        flash_stall,
         led::{self, Health},
         selftest,
         watchdog::{FeedPolicy, Verdict},
@@ -302,6 +303,7 @@ mod firmware {
             xy_ref_v: Some(ranks.xy_ref_v),
             z_ref_v: Some(ranks.z_ref_v),
             depth_v: Some((ranks.depth_v, false)),
+            depth_connected: Some(adc_scan.depth_probe().connected()),
             bus_clears: bus.clears,
             last_clear: bus.last_clear,
             settings_from_flash: matches!(loaded.source, Source::Flash { .. }),
@@ -473,11 +475,22 @@ mod firmware {
     async fn command(mut cx: command::Context, mut lines: Receiver<'static, Received, LINE_SLOTS>) {
         while let Ok(line) = lines.recv().await {
             let flash = &mut *cx.local.flash;
+            let (cycles, ticks) = (DWT::cycle_count(), Mono::now().as_ticks());
             cx.shared.cmd.lock(|c| {
                 let response = c.device.handle(&line.event, flash);
                 // The reply goes back to the port the command came from.
                 c.record(response.reply, line.reply_route(), response.action);
             });
+            // A flash erase (`SAVE`) stalls SysTick's interrupt: the monotonic's ticks lost,
+            // at most 399 (`supervision::flash_stall`).
+            let lost = flash_stall::ticks_lost(
+                DWT::cycle_count().wrapping_sub(cycles),
+                cortex_m::peripheral::SYST::get_reload() + 1,
+                Mono::now().as_ticks().wrapping_sub(ticks),
+            );
+            if lost > 0 {
+                defmt::warn!("the monotonic lost {=u32} ticks to a flash stall", lost);
+            }
         }
     }
 

@@ -136,6 +136,7 @@ mod tests {
         ranks: inemo_ahrs::adc::RankCheck,
         frames: u32,
         calibrated: bool,
+        depth_probe: inemo_ahrs::supervision::depth_probe::DepthProbe,
     }
 
     /// The LSM303DLH on the guarded bus (cleared at its creation) and the ADC scan, as the
@@ -207,6 +208,7 @@ mod tests {
             ranks: scan.ranks(),
             frames,
             calibrated: scan.calibrated(),
+            depth_probe: scan.depth_probe(),
         }
     }
 
@@ -315,12 +317,19 @@ mod tests {
             xy_ref_v: Some(ranks.xy_ref_v),
             z_ref_v: Some(ranks.z_ref_v),
             depth_v: Some((ranks.depth_v, false)),
+            depth_connected: Some(r.depth_probe.connected()),
             i2c_errors: r.i2c_errors,
             bus_clears: 1,
             last_clear: clear,
             settings_from_flash: true,
             ..selftest::Inputs::default()
         };
+        defmt::info!(
+            "depth probe: pulled down {=u16}, up {=u16} counts: connected {=bool}",
+            r.depth_probe.pulled_down,
+            r.depth_probe.pulled_up,
+            r.depth_probe.connected()
+        );
         let report = selftest::evaluate(&inputs);
         defmt::info!("self-test {=str} {=u32:05x}", report.overall().name(), report.code());
         defmt::assert!(

@@ -14,6 +14,17 @@
 //! frame period. The frame rate is exactly [`FRAME_HZ`] = 1 kHz: 20 frames per 50 Hz filter
 //! cycle, 5 per 200 Hz cycle.
 //!
+//! The depth input's probe (issue #27 point 4; the decision is the library's
+//! [`DepthProbe`], host-tested): before the timer runs, in `init`, three software scans
+//! instead of one. The first with PA1 switched to an input with its pull-down, the second with
+//! its pull-up (each pull on 1 ms before and during the scan), the third with PA1 back in
+//! analog mode — the frame the rank check reads. A floating PA1 follows each pull to its rail;
+//! a sensor's output does not move. Done once, at boot: the filter's gyro scans are not
+//! touched (the timer starts after the probe), and the running scan's depth readings never see
+//! a pull. A sensor connected after boot is seen at the next reset. The pin mode is switched
+//! through GPIOA's registers (PA1's field in GPIOA_CRL, its ODR bit choosing the pull): the
+//! HAL's typed pin is inside the scan's DMA payload by then.
+//!
 //! The HAL's `CircBuffer` is not used: on an overrun (both halves complete before the handler
 //! ran) it reports an error without clearing either flag, which would keep the interrupt
 //! pending for good. The DMA is never stopped once running, because restarting it in the
@@ -22,6 +33,7 @@
 use core::sync::atomic::{compiler_fence, Ordering};
 
 use inemo_ahrs::adc::{check_ranks, AdcFrame, RankCheck, SCAN_CHANNELS, SCAN_LEN};
+use inemo_ahrs::supervision::depth_probe::DepthProbe;
 use stm32f1xx_hal::{
     adc::{Adc, AdcDma, ChannelTimeSequence, SampleTime, Scan, SetChannels},
     dma::{dma1, Event, TransferPayload},
@@ -82,6 +94,7 @@ pub struct AdcScan {
     buf: &'static mut [[u16; SCAN_LEN]; 2],
     calibrated: bool,
     ranks: RankCheck,
+    depth_probe: DepthProbe,
     _trigger: CounterHz<pac::TIM3>,
 }
 
@@ -141,14 +154,40 @@ pub fn start(
     });
     ch.listen(Event::HalfTransfer);
     ch.listen(Event::TransferComplete);
+    // The depth probe (module documentation): PA1 pulled down, then up, one scan each; then
+    // analog again for the scan the rank check reads. Each scan is read once it is complete
+    // (< 170 µs) and before another starts.
+    // SAFETY (the volatile reads): a frame of the 'static buffer, complete; the DMA is idle
+    // between the scans started here until the timer runs.
+    let ms = sysclk / 1_000;
+    let scan_time = sysclk / 2_000;
+    pa1_pull(Some(false));
+    cortex_m::asm::delay(ms);
     // Enables the channel, then rewrites ADON, which starts one software scan: it lands,
     // aligned, in frame 0.
     dma.start();
-    // Let that scan finish (< 170 µs) before the timer can trigger another one.
-    cortex_m::asm::delay(sysclk / 2_000);
-    // The boot check on that first frame: do the ranks read like what they should be?
-    // SAFETY: frame 0 of the 'static buffer, complete (the DMA is idle until the timer runs).
+    cortex_m::asm::delay(scan_time);
+    let pulled_down = AdcFrame::from_scan(unsafe { core::ptr::read_volatile(&buf[0]) }).depth;
+    pa1_pull(Some(true));
+    cortex_m::asm::delay(ms);
+    // ADON written again, no other bit changed, starts the next scan (RM0008 §11.12.3): frame 1.
+    regs.cr2().modify(|_, w| w.adon().set_bit());
+    cortex_m::asm::delay(scan_time);
+    let pulled_up = AdcFrame::from_scan(unsafe { core::ptr::read_volatile(&buf[1]) }).depth;
+    pa1_pull(None);
+    cortex_m::asm::delay(ms);
+    // The third scan, PA1 in analog mode as it stays: frame 0 again.
+    regs.cr2().modify(|_, w| w.adon().set_bit());
+    cortex_m::asm::delay(scan_time);
     let first = unsafe { core::ptr::read_volatile(&buf[0]) };
+    let depth_probe = DepthProbe { pulled_down, pulled_up };
+    // Three scans moved the DMA to frame 1, where the timer's first scan lands; the flags of
+    // the probe's frames are cleared, so the first interrupt hands over that frame.
+    dma.channel.ifcr().write(|w| {
+        w.chtif(DMA_INDEX).set_bit();
+        w.ctcif(DMA_INDEX).set_bit()
+    });
+    // The boot check on the last frame: do the ranks read like what they should be?
     let ranks = check_ranks(&AdcFrame::from_scan(first));
 
     let mut timer = Timer::new(tim3, rcc);
@@ -161,7 +200,30 @@ pub fn start(
         panic!("TIM3 cannot run at the ADC frame rate");
     }
 
-    AdcScan { dma, buf, calibrated, ranks, _trigger: trigger }
+    AdcScan { dma, buf, calibrated, ranks, depth_probe, _trigger: trigger }
+}
+
+/// PA1's mode: `Some(false)` input with pull-down, `Some(true)` input with pull-up, `None`
+/// analog (RM0008 §9.2.2: CNF1/MODE1 in GPIOA_CRL bits 4–7, 0b1000 input with pull-up/down,
+/// 0b0000 analog; ODR bit 1 selects up (1) or down (0)). Only in `init`, interrupts masked:
+/// nothing else writes GPIOA_CRL then.
+fn pa1_pull(pull: Option<bool>) {
+    // SAFETY: GPIOA's registers; only PA1's field of CRL and its own BSRR/BRR bit are changed.
+    let gpioa = unsafe { &*pac::GPIOA::ptr() };
+    match pull {
+        Some(up) => {
+            if up {
+                gpioa.bsrr().write(|w| w.bs1().set_bit());
+            } else {
+                gpioa.brr().write(|w| w.br1().set_bit());
+            }
+            gpioa.crl().modify(|r, w| unsafe { w.bits((r.bits() & !0xF0) | 0x80) });
+        }
+        None => {
+            gpioa.crl().modify(|r, w| unsafe { w.bits(r.bits() & !0xF0) });
+            gpioa.brr().write(|w| w.br1().set_bit());
+        }
+    }
 }
 
 /// Resets and runs the ADC calibration, each step bounded (it takes about 90 ADC clocks).
@@ -184,6 +246,11 @@ impl AdcScan {
     /// The boot check of the first frame's ranks (VREFINT, the gyro references).
     pub fn ranks(&self) -> RankCheck {
         self.ranks
+    }
+
+    /// The boot's depth-input probe: the depth channel read with PA1 pulled down and up.
+    pub fn depth_probe(&self) -> DepthProbe {
+        self.depth_probe
     }
 
     /// Handles DMA1 channel 1's interrupt: clears the flags it saw and copies out the frame

@@ -81,6 +81,7 @@ mod tests {
             xy_ref_v: Some(1.2304),
             z_ref_v: Some(1.5),
             depth_v: Some((3.2999, true)),
+            depth_connected: Some(true),
             i2c_errors: 1_000_000,
             bus_clears: 12_345,
             last_clear: Some(Clear::Freed { clocks: 9 }),
@@ -101,10 +102,11 @@ mod tests {
     }
 
     /// The report a first flash gives on a working board (docs/bring-up.md, step 4): no
-    /// settings record in flash yet, so the settings item (bits 16–17) warns and the whole
-    /// report is `WARN,10000`; with the depth input at a rail (no sensor, input pulled to a
-    /// rail) the depth item (bits 12–13) warns too: `WARN,11000`. A floating depth input that
-    /// reads mid-range passes (issue #27 point 4).
+    /// settings record in flash yet, so the settings item (bits 16–17) warns (1); with no depth
+    /// sensor the boot's probe finds PA1 floating and the depth item (bits 12–13) is "not
+    /// connected" (3), whatever the floating pin reads (about 1.2 V, issue #27 point 4): the
+    /// report is `WARN,13000`. With a sensor: `WARN,10000`, and `WARN,11000` when its output
+    /// is at a rail; after a `SAVE`, `PASS,00000`.
     #[test]
     fn a_first_flash_warns_for_the_settings() {
         let first = Inputs {
@@ -117,6 +119,7 @@ mod tests {
             xy_ref_v: Some(1.23),
             z_ref_v: Some(1.5),
             depth_v: Some((1.2, false)),
+            depth_connected: Some(false),
             i2c_errors: 0,
             bus_clears: 1,
             last_clear: Some(Clear::Freed { clocks: 0 }),
@@ -125,13 +128,19 @@ mod tests {
         };
         let s = selftest_reply("SELFTEST", &first).finish();
         let body = text(&s).split('*').next().unwrap().to_owned();
-        assert_eq!(body, "$PINAR,OK,SELFTEST,WARN,10000,8000,3300,1000,45,1230,1500,1200,0,1");
-        let at_rail = Inputs { depth_v: Some((3.3, true)), ..first };
+        assert_eq!(body, "$PINAR,OK,SELFTEST,WARN,13000,8000,3300,1000,45,1230,1500,1200,0,1");
+        let sensor = Inputs { depth_connected: Some(true), ..first };
+        let s = selftest_reply("SELFTEST", &sensor).finish();
+        assert!(text(&s).starts_with("$PINAR,OK,SELFTEST,WARN,10000,"), "{}", text(&s));
+        let at_rail = Inputs { depth_v: Some((3.3, true)), ..sensor };
         let s = selftest_reply("SELFTEST", &at_rail).finish();
         assert!(text(&s).starts_with("$PINAR,OK,SELFTEST,WARN,11000,"), "{}", text(&s));
-        let saved = Inputs { settings_from_flash: true, ..first };
+        let saved = Inputs { settings_from_flash: true, ..sensor };
         let s = selftest_reply("SELFTEST", &saved).finish();
         assert!(text(&s).starts_with("$PINAR,OK,SELFTEST,PASS,00000,"), "{}", text(&s));
+        let saved_no_sensor = Inputs { settings_from_flash: true, ..first };
+        let s = selftest_reply("SELFTEST", &saved_no_sensor).finish();
+        assert!(text(&s).starts_with("$PINAR,OK,SELFTEST,WARN,03000,"), "{}", text(&s));
     }
 
     #[test]

@@ -9,12 +9,16 @@
 //! - [`i2c_bus`]: the I²C bus with every transfer under an interrupt mask, and the bus clear
 //!   (nine clocks and a STOP) at boot and after repeated failures;
 //! - [`selftest`]: the bring-up self-test's grades (`SELFTEST`, and at boot);
+//! - [`depth_probe`]: whether the depth input is driven or floats (read with each pull);
+//! - [`flash_stall`]: the monotonic's ticks a flash erase costs (`SAVE`);
 //! - [`stack`]: the measured stack high-water mark (painted stack);
 //! - [`imu`]: the LSM303DLH's read schedule with bounded retries, re-configuration after
 //!   failures and stuck-data detection.
 
 pub mod clock_check;
+pub mod depth_probe;
 pub mod fault_record;
+pub mod flash_stall;
 pub mod i2c_bus;
 pub mod imu;
 pub mod led;

@@ -10,6 +10,11 @@
 //! | magnetometer | identifies as the LSM303DLH, 20–80 µT (the Earth's field, 25–65 µT) | other identification, no sample yet or other magnitude | does not answer |
 //! | gyro references | both within 1.0–1.8 V | — | outside, or no ADC data |
 //! | depth | between the rails | at a rail (no sensor, or beyond its range) | no ADC data |
+//!
+//! The depth item has a fourth grade, **not connected** ([`Grade::NotConnected`], 3): the
+//! boot's probe found PA1 floating (it followed the pull each way,
+//! [`super::depth_probe`]); it counts as a warning in the overall grade (a board without a
+//! depth sensor works, its depth is meaningless).
 //! | I²C | no errors since boot | errors, or bus clears after the boot's | the last bus clear could not free the bus |
 //! | settings | a valid flash record | defaults (no record) | — |
 //! | fault | no fault record at boot | the previous run ended in a HardFault or panic | — |
@@ -41,6 +46,9 @@ pub struct Inputs {
     pub z_ref_v: Option<f32>,
     /// The depth channel, V, and whether it touched a rail.
     pub depth_v: Option<(f32, bool)>,
+    /// The boot's probe of the depth input ([`super::depth_probe`]): `Some(false)` when it
+    /// floats (nothing connected); `None` when not probed (emulator).
+    pub depth_connected: Option<bool>,
     /// Failed I²C transfers since boot.
     pub i2c_errors: u32,
     /// Bus clears since boot (the boot's included).
@@ -62,6 +70,9 @@ pub enum Grade {
     Warn = 1,
     /// Broken or missing.
     Fail = 2,
+    /// The depth input floats: no sensor connected (the depth item only; a warning in the
+    /// overall grade).
+    NotConnected = 3,
 }
 
 impl Grade {
@@ -71,6 +82,15 @@ impl Grade {
             Grade::Pass => "PASS",
             Grade::Warn => "WARN",
             Grade::Fail => "FAIL",
+            Grade::NotConnected => "NC",
+        }
+    }
+
+    /// How bad it is, for the overall grade: [`Grade::NotConnected`] counts as a warning.
+    pub const fn severity(self) -> Grade {
+        match self {
+            Grade::NotConnected => Grade::Warn,
+            g => g,
         }
     }
 }
@@ -97,13 +117,13 @@ pub struct Report {
 }
 
 impl Report {
-    /// The worst grade.
+    /// The worst grade (PASS, WARN or FAIL: "not connected" counts as WARN).
     pub fn overall(&self) -> Grade {
-        self.grades.iter().copied().max().unwrap_or(Grade::Pass)
+        self.grades.iter().map(|g| g.severity()).max().unwrap_or(Grade::Pass)
     }
 
     /// The grades packed two bits per item, item 0 in the lowest bits (0 pass, 1 warn,
-    /// 2 fail): 20 bits, five hex digits in the reply.
+    /// 2 fail, 3 not connected — the depth item only): 20 bits, five hex digits in the reply.
     pub fn code(&self) -> u32 {
         self.grades.iter().enumerate().fold(0, |c, (i, g)| c | (*g as u32) << (2 * i))
     }
@@ -150,6 +170,7 @@ pub fn evaluate(i: &Inputs) -> Report {
         _ => Fail,
     };
     let depth = match i.depth_v {
+        Some(_) if i.depth_connected == Some(false) => NotConnected,
         Some((_, false)) => Pass,
         Some((_, true)) => Warn,
         None => Fail,
@@ -180,6 +201,7 @@ mod tests {
             xy_ref_v: Some(1.23),
             z_ref_v: Some(1.5),
             depth_v: Some((0.66, false)),
+            depth_connected: Some(true),
             i2c_errors: 0,
             bus_clears: 1,
             last_clear: Some(Clear::Freed { clocks: 1 }),
@@ -228,7 +250,7 @@ mod tests {
 
     #[test]
     fn each_failure_is_graded_on_its_own_item() {
-        let cases: [(&str, Inputs, Grade); 16] = [
+        let cases: [(&str, Inputs, Grade); 17] = [
             (
                 "clock",
                 Inputs { hse: Some(HseCheck::WrongFrequency(12_000_000)), ..good() },
@@ -246,6 +268,7 @@ mod tests {
             ("mag", Inputs { mag_ut: Some([0.0, 0.0, 300.0]), ..good() }, Grade::Warn),
             ("gyro refs", Inputs { z_ref_v: Some(0.2), ..good() }, Grade::Fail),
             ("depth", Inputs { depth_v: Some((0.0, true)), ..good() }, Grade::Warn),
+            ("depth", Inputs { depth_v: None, ..good() }, Grade::Fail),
             ("I2C", Inputs { last_clear: Some(Clear::SdaStuck), ..good() }, Grade::Fail),
             ("I2C", Inputs { i2c_errors: 3, bus_clears: 2, ..good() }, Grade::Warn),
             ("settings", Inputs { settings_from_flash: false, ..good() }, Grade::Warn),
@@ -264,6 +287,31 @@ mod tests {
         }
         let f = Inputs { fault: Some(FaultKind::HardFault), ..good() };
         assert_eq!(grade(&f, "fault"), Grade::Warn);
+    }
+
+    /// A floating depth input (the boot's probe: `depth_connected == Some(false)`) is graded
+    /// "not connected", 3 in bits 12–13, whatever it reads — a mid-range 1.2 V included (issue
+    /// #27 point 4) — and counts as a warning overall. Not probed (`None`): graded on the
+    /// reading alone, as before. No ADC data still fails.
+    #[test]
+    fn a_floating_depth_input_is_not_connected() {
+        let floating =
+            Inputs { depth_v: Some((1.2, false)), depth_connected: Some(false), ..good() };
+        let r = evaluate(&floating);
+        assert_eq!(grade(&floating, "depth"), Grade::NotConnected);
+        assert_eq!(r.code(), 0x3000);
+        assert_eq!(r.overall(), Grade::Warn);
+        assert_eq!(r.overall().name(), "WARN");
+        let at_rail = Inputs { depth_v: Some((3.3, true)), ..floating };
+        assert_eq!(grade(&at_rail, "depth"), Grade::NotConnected);
+        let unprobed = Inputs { depth_connected: None, ..floating };
+        assert_eq!(grade(&unprobed, "depth"), Grade::Pass);
+        let no_data = Inputs { depth_v: None, ..floating };
+        assert_eq!(grade(&no_data, "depth"), Grade::Fail);
+        // A failure elsewhere still makes the whole report FAIL.
+        let r = evaluate(&Inputs { ranks_aligned: false, ..floating });
+        assert_eq!(r.overall(), Grade::Fail);
+        assert_eq!(r.code(), 0x3000 | 0b10 << 4);
     }
 
     #[test]
