@@ -29,7 +29,9 @@ pub const ADC_CH_DEPTH: u8 = 1;
 /// ADC1 channel of the internal reference VREFINT (RM0008 §11.12; enabled by ADC_CR2.TSVREFE).
 pub const ADC_CH_VREFINT: u8 = 17;
 /// VREFINT, V: 1.20 typ., 1.16–1.26 over −40…105 °C (STM32F103xC/D/E datasheet
-/// DS5792, "Embedded internal reference voltage"). VDDA = VREFINT · 4095 / counts.
+/// DS5792, "Embedded internal reference voltage"). VDDA = VREFINT · 4095 / counts. The default
+/// of the setting `adc.vrefint`, which holds a calibrated board's own value; the boot's rank
+/// check keeps this nominal value (`adc::check_ranks`).
 pub const VREFINT_V: f32 = 1.20;
 /// VDDA range in which the ADC works (DS5792: 2.4–3.6 V): a VREFINT reading that gives a VDDA
 /// outside it is not a VREFINT reading (a wrong rank) and is not used.

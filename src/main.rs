@@ -297,7 +297,8 @@ mod firmware {
         let bus = imu.bus().counters;
         let board = selftest::Inputs {
             hse: Some(hse_check),
-            vdda_v: ranks.vdda_v,
+            // The rank check's VDDA is from the nominal VREFINT: rescaled to the board's.
+            vdda_v: ranks.vdda_v.map(|v| v * settings.adc.vrefint_v / board::VREFINT_V),
             ranks_aligned: ranks.aligned(),
             mag_id_ok,
             xy_ref_v: Some(ranks.xy_ref_v),
@@ -629,7 +630,14 @@ mod firmware {
             }
 
             let reading = cx.local.imu.read();
-            crate::app::update_board(cx.local.board, &reading, adc.as_ref(), cx.local.imu);
+            let adc_scale = cx.local.pipeline.settings().adc;
+            crate::app::update_board(
+                cx.local.board,
+                &reading,
+                adc.as_ref(),
+                &adc_scale,
+                cx.local.imu,
+            );
             if cycle == 0 {
                 let report = selftest::evaluate(cx.local.board);
                 defmt::println!(

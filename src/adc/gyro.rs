@@ -128,7 +128,7 @@ mod tests {
         let g = GyroConversion::default();
         assert_eq!(g.sensitivity_v_per_dps, [3.33e-3, 3.33e-3, 3.752e-3]);
         assert_eq!(g.range_dps, 300.0);
-        assert_eq!(g.scale, AdcScale { vref_v: 3.3, full_scale_counts: 4095.0 });
+        assert_eq!(g.scale, AdcScale { vref_v: 3.3, full_scale_counts: 4095.0, vrefint_v: 1.20 });
         assert_eq!(g.counts_to_volts(4095.0), 3.3);
     }
 

@@ -48,8 +48,15 @@ impl RankCheck {
 /// Checks one frame.
 pub fn check_ranks(frame: &AdcFrame) -> RankCheck {
     let full = f32::from(board::ADC_FULL_SCALE);
-    let vdda_v = vdda_from_vrefint(f32::from(frame.vrefint), full);
-    let scale = AdcScale { vref_v: vdda_v.unwrap_or(board::ADC_VREF), full_scale_counts: full };
+    // The nominal VREFINT, not the board's `adc.vrefint`: this only asks whether the rank
+    // reads like VREFINT at all (a VDDA in the ADC's 2.4–3.6 V), which the part's ±5 % cannot
+    // change, and it must not depend on a setting that a wrong `SET` could spoil.
+    let vdda_v = vdda_from_vrefint(f32::from(frame.vrefint), full, board::VREFINT_V);
+    let scale = AdcScale {
+        vref_v: vdda_v.unwrap_or(board::ADC_VREF),
+        full_scale_counts: full,
+        vrefint_v: board::VREFINT_V,
+    };
     RankCheck {
         vdda_v,
         xy_ref_v: scale.counts_to_volts(f32::from(frame.gyro_xy_ref)),

@@ -16,7 +16,7 @@ pub mod uart_tx;
 pub mod usb;
 pub mod watchdog;
 
-use inemo_ahrs::adc::{vdda_from_vrefint, AdcMean, AdcScale, Averager, Rails};
+use inemo_ahrs::adc::{AdcMean, AdcScale, Averager, Rails};
 use inemo_ahrs::supervision::{imu::Reading, selftest};
 
 /// The I²C clock for fast mode with a 2:1 duty cycle at APB1 `pclk1_hz`: the highest at or
@@ -60,11 +60,13 @@ impl AdcShared {
 }
 
 /// Keeps the self-test's live readings current (every filter cycle): the last samples of the
-/// sensors, the ADC channels of this cycle's mean, the I²C counters.
+/// sensors, the ADC channels of this cycle's mean (converted with `adc_scale`, the settings'
+/// `adc`: its `vrefint_v` is the board's `adc.vrefint`), the I²C counters.
 pub fn update_board<E>(
     b: &mut selftest::Inputs,
     reading: &Reading<E>,
     adc: Option<&AdcMean>,
+    adc_scale: &AdcScale,
     imu: &imu::Imu,
 ) {
     b.accel_g = reading.accel_g;
@@ -73,9 +75,8 @@ pub fn update_board<E>(
     }
     b.mag_id_ok = if imu.configured() { b.mag_id_ok.or(Some(true)) } else { None };
     if let Some(m) = adc {
-        let full = AdcScale::default().full_scale_counts;
-        let scale = AdcScale::default().for_mean(m);
-        b.vdda_v = vdda_from_vrefint(m.vrefint, full);
+        let scale = adc_scale.for_mean(m);
+        b.vdda_v = adc_scale.vdda(m);
         b.xy_ref_v = Some(scale.counts_to_volts(m.gyro_xy_ref));
         b.z_ref_v = Some(scale.counts_to_volts(m.gyro_z_ref));
         b.depth_v = Some((scale.counts_to_volts(m.depth), m.rails.intersects(Rails::DEPTH)));

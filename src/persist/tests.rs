@@ -230,16 +230,16 @@ impl Flash for Odd {
     }
 }
 
-/// The current record is 554 bytes (`record_size_of_the_current_registry`): a page of
+/// The current record is 560 bytes (`record_size_of_the_current_registry`): a page of
 /// exactly that size takes it, a page two bytes smaller is refused as too small before
 /// anything is written.
 #[test]
 fn a_record_larger_than_the_page_is_refused_before_any_write() {
     let s = variant(5);
-    let mut f = Odd { inner: SimFlash::new(), size: 554, deaf: false };
+    let mut f = Odd { inner: SimFlash::new(), size: 560, deaf: false };
     assert_eq!(save(&mut f, &s), Ok(Saved { page: Page::A, seq: 1 }));
     assert_eq!(load(&f).settings, s);
-    let mut f = Odd { inner: SimFlash::new(), size: 552, deaf: false };
+    let mut f = Odd { inner: SimFlash::new(), size: 558, deaf: false };
     assert_eq!(save(&mut f, &s), Err(SaveError::TooLarge));
     assert_eq!(f.inner.steps, 0);
 }
@@ -578,8 +578,8 @@ fn print_record_size() {
 #[test]
 fn record_size_of_the_current_registry() {
     let (len, count) = payload_size(&PipelineSettings::default());
-    assert_eq!((count, len), (74, 537));
-    assert_eq!(HEADER_LEN + padded(len) + CRC_LEN, 554);
+    assert_eq!((count, len), (75, 544));
+    assert_eq!(HEADER_LEN + padded(len) + CRC_LEN, 560);
 }
 
 /// The marine output settings (ids 114–119) are saved and loaded like the others.
@@ -617,4 +617,30 @@ fn a_record_from_before_the_marine_settings_loads_with_their_defaults() {
     let s = l.settings.sentences;
     assert!(!s.prdid && s.pinah && !s.hdt && !s.hdg && !s.hdm && !s.rot && !s.xdr);
     assert_eq!(s.talker, crate::registry::talker_code(*b"HC"));
+}
+
+/// A record saved by the firmware before `adc.vrefint` (id 93; issue #27): it loads in full,
+/// its own `adc.vref` kept, `adc.vrefint` at the datasheet's typical 1.20 V (counted as
+/// missing), in the settings and in the gyro conversion's copy alike.
+#[test]
+fn a_record_from_before_adc_vrefint_loads_with_its_default() {
+    const NEW: [u16; 1] = [93];
+    let mut old = PipelineSettings::default();
+    assert!(find("adc.vref").unwrap().set(&mut old, Value::F32(3.25)));
+    old.depth.water_density_kg_m3 = 998.0;
+    let f = record_without(&old, &NEW, Page::A, 12);
+    let l = load(&f);
+    assert_eq!(l.source, Source::Flash { page: Page::A, seq: 12 });
+    assert_eq!((l.skipped, l.missing), (0, 1));
+    assert_eq!(l.settings, old);
+    assert_eq!((l.settings.adc.vrefint_v, l.settings.gyro.scale.vrefint_v), (1.20, 1.20));
+    assert_eq!((l.settings.adc.vref_v, l.settings.gyro.scale.vref_v), (3.25, 3.25));
+    // A record with it keeps it.
+    let mut new = old;
+    assert!(find("adc.vrefint").unwrap().set(&mut new, Value::F32(1.234)));
+    let mut f = SimFlash::new();
+    save(&mut f, &new).unwrap();
+    let l = load(&f);
+    assert_eq!((l.skipped, l.missing), (0, 0));
+    assert_eq!((l.settings.adc.vrefint_v, l.settings.gyro.scale.vrefint_v), (1.234, 1.234));
 }

@@ -124,12 +124,16 @@ macro_rules! help_of {
 
 /// Flash id of `adc.vref`.
 const ADC_VREF: u16 = 90;
+/// Flash id of `adc.vrefint`.
+const ADC_VREFINT: u16 = 93;
 
-/// What a write to the setting `id` changes besides its slot: `adc.vref` is the reference of
-/// the depth channel and of the gyro conversion alike.
+/// What a write to the setting `id` changes besides its slot: `adc.vref` and `adc.vrefint`
+/// are the reference of the depth channel and of the gyro conversion alike.
 pub(super) fn after_write(s: &mut PipelineSettings, id: u16) {
-    if id == ADC_VREF {
-        s.gyro.scale.vref_v = s.adc.vref_v;
+    match id {
+        ADC_VREF => s.gyro.scale.vref_v = s.adc.vref_v,
+        ADC_VREFINT => s.gyro.scale.vrefint_v = s.adc.vrefint_v,
+        _ => {}
     }
 }
 
@@ -625,6 +629,17 @@ settings_table! {
         5.0,
         "ADC reference voltage (gyro and depth channels)",
         |s| s.adc.vref_v
+    ),
+    // Also the gyro conversion's: see `after_write`. (Id 93: the section's next free one.)
+    num!(
+        93,
+        "adc.vrefint",
+        "V",
+        1.0,
+        1.16,
+        1.26,
+        "this part's internal reference VREFINT, from which VDDA and so the gyro and depth scales are measured (STM32F103 datasheet DS5792: 1.20 typ., 1.16–1.26); set once per board from a multimeter's VDDA (docs/bring-up.md)",
+        |s| s.adc.vrefint_v
     ),
     vec3!(
         91,

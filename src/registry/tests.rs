@@ -118,6 +118,45 @@ fn user_units_are_converted() {
     assert_eq!(text(axes, &v), "-y,x,z");
 }
 
+/// `adc.vrefint` (issue #27): set from text, read back, bounded by the datasheet's 1.16–1.26 V
+/// (DS5792), and used by both conversions. A part whose VREFINT is 1.23 V, at VDDA 3.3 V,
+/// turning at 90 °/s about x: the ADC sees VREFINT at 1.23 / 3.3 · 4095 counts and the LPR430AL
+/// output 90 · 3.33 mV above its reference. With the nominal 1.20 V the rate reads
+/// 90 · 1.20 / 1.23 = 87.80 °/s and a 1.000 V depth signal 0.9756 V; with `adc.vrefint` 1.23
+/// both read true.
+#[test]
+fn adc_vrefint_round_trips_and_scales_gyro_and_depth() {
+    use crate::adc::AdcMean;
+    let e = find("adc.vrefint").unwrap();
+    let d = PipelineSettings::default();
+    assert_eq!(e.get(&d), Value::F32(1.20));
+    assert_eq!(e.parse(&["1.15"]), Err(ValueError::Range));
+    assert_eq!(e.parse(&["1.27"]), Err(ValueError::Range));
+    let mut s = d;
+    assert!(e.set(&mut s, e.parse(&["1.23"]).unwrap()));
+    assert_eq!(text(e, &e.get(&s)), "1.23");
+    assert_eq!((s.adc.vrefint_v, s.gyro.scale.vrefint_v), (1.23, 1.23));
+
+    let c = |v: f32| v / 3.3 * 4095.0;
+    let mean = AdcMean {
+        gyro_x: c(1.23 + 90.0 * 0.00333),
+        gyro_y: c(1.23),
+        gyro_xy_ref: c(1.23),
+        gyro_z: c(1.5),
+        gyro_z_ref: c(1.5),
+        depth: c(1.0),
+        vrefint: c(1.23),
+        samples: 1,
+        ..AdcMean::default()
+    };
+    let dps = |st: &PipelineSettings| st.gyro.rates(&mean).rate[0] / mathf::deg(1.0);
+    assert!((dps(&s) - 90.0).abs() < 1e-3, "{}", dps(&s));
+    assert!((dps(&d) - 87.805).abs() < 1e-3, "{}", dps(&d));
+    let volts = |st: &PipelineSettings| st.depth.reading(&mean, &st.adc).volts;
+    assert!((volts(&s) - 1.0).abs() < 1e-5, "{}", volts(&s));
+    assert!((volts(&d) - 0.975_61).abs() < 1e-5, "{}", volts(&d));
+}
+
 #[test]
 fn bad_values_are_refused_with_the_right_reason() {
     let f = find("gate.norm_tolerance").unwrap();
