@@ -67,6 +67,7 @@ mod firmware {
     use inemo_ahrs::supervision::{
         clock_check::HseCheck,
         flash_stall,
+        i2c_bus::bus_clock,
         led::{self, Health},
         selftest,
         watchdog::{FeedPolicy, Verdict},
@@ -100,7 +101,7 @@ mod firmware {
     use crate::app::settings_flash::SettingsFlash;
     use crate::app::{
         adc_scan::{self, AdcPins, AdcScan},
-        clocks, i2c_clock_hz,
+        clocks,
         imu::{self, Imu},
         uart_tx::{DmaTx, TX_BUF_LEN},
         usb::{UsbConsole, UsbQueue, CHUNK},
@@ -226,11 +227,19 @@ mod firmware {
         let mut tx = DmaTx::new(tx.with_dma(dma1.7), cx.local.tx_buf, usart2_dr);
 
         // I²C2 (PB10 SCL, PB11 SDA), fast mode, every transfer bounded in time.
-        let i2c_hz = i2c_clock_hz(clocks.pclk1().raw(), board::I2C_FREQUENCY_HZ);
+        // The clock of the setting `i2c.clock` (read here only: a change takes `SAVE` and a
+        // reset), at or below it and exact (`bus_clock`).
+        let i2c_clock = bus_clock(clocks.pclk1().raw(), settings.i2c_clock_khz);
+        let i2c_hz = i2c_clock.hz;
+        let i2c_mode = if i2c_clock.fast {
+            Mode::fast(Hertz::from_raw(i2c_hz), DutyCycle::Ratio2to1)
+        } else {
+            Mode::standard(Hertz::from_raw(i2c_hz))
+        };
         let i2c = BlockingI2c::new(
             dp.I2C2,
             (gpiob.pb10, gpiob.pb11),
-            Mode::fast(Hertz::from_raw(i2c_hz), DutyCycle::Ratio2to1),
+            i2c_mode,
             &mut rcc,
             imu::START_TIMEOUT_US,
             imu::START_RETRIES,

@@ -79,6 +79,9 @@ pub struct PipelineSettings {
     pub output_rate_hz: u16,
     /// Sentences to send.
     pub sentences: SentenceSet,
+    /// I²C2 clock, kHz, 100–400 (setting `i2c.clock`; read at boot only). Default 300
+    /// ([`board::I2C_FREQUENCY_HZ`]: ST's firmware for the board).
+    pub i2c_clock_khz: u16,
 }
 
 impl Default for PipelineSettings {
@@ -100,6 +103,7 @@ impl Default for PipelineSettings {
             filter_rate_hz: 50,
             output_rate_hz: 10,
             sentences: SentenceSet::default(),
+            i2c_clock_khz: (board::I2C_FREQUENCY_HZ / 1000) as u16,
         }
     }
 }

@@ -19,16 +19,6 @@ pub mod watchdog;
 use inemo_ahrs::adc::{AdcMean, AdcScale, Averager, Rails};
 use inemo_ahrs::supervision::{imu::Reading, selftest};
 
-/// The I²C clock for fast mode with a 2:1 duty cycle at APB1 `pclk1_hz`: the highest at or
-/// below `board::I2C_FREQUENCY_HZ` that the HAL's integer divider reproduces exactly (the
-/// HAL rounds the divider down, i.e. the clock up: 32 MHz / (3 × 400 kHz) = 26.7 would run the
-/// bus at 410 kHz).
-pub fn i2c_clock_hz(pclk1_hz: u32, max_hz: u32) -> u32 {
-    let max_hz = max_hz.max(1);
-    let ccr = pclk1_hz.div_ceil(3 * max_hz).max(1);
-    pclk1_hz / (3 * ccr)
-}
-
 /// ADC frames the DMA interrupt hands to the filter task.
 #[derive(Clone, Debug, Default)]
 pub struct AdcShared {

@@ -230,16 +230,16 @@ impl Flash for Odd {
     }
 }
 
-/// The current record is 560 bytes (`record_size_of_the_current_registry`): a page of
+/// The current record is 566 bytes (`record_size_of_the_current_registry`): a page of
 /// exactly that size takes it, a page two bytes smaller is refused as too small before
 /// anything is written.
 #[test]
 fn a_record_larger_than_the_page_is_refused_before_any_write() {
     let s = variant(5);
-    let mut f = Odd { inner: SimFlash::new(), size: 560, deaf: false };
+    let mut f = Odd { inner: SimFlash::new(), size: 566, deaf: false };
     assert_eq!(save(&mut f, &s), Ok(Saved { page: Page::A, seq: 1 }));
     assert_eq!(load(&f).settings, s);
-    let mut f = Odd { inner: SimFlash::new(), size: 558, deaf: false };
+    let mut f = Odd { inner: SimFlash::new(), size: 564, deaf: false };
     assert_eq!(save(&mut f, &s), Err(SaveError::TooLarge));
     assert_eq!(f.inner.steps, 0);
 }
@@ -578,8 +578,8 @@ fn print_record_size() {
 #[test]
 fn record_size_of_the_current_registry() {
     let (len, count) = payload_size(&PipelineSettings::default());
-    assert_eq!((count, len), (75, 544));
-    assert_eq!(HEADER_LEN + padded(len) + CRC_LEN, 560);
+    assert_eq!((count, len), (76, 549));
+    assert_eq!(HEADER_LEN + padded(len) + CRC_LEN, 566);
 }
 
 /// The marine output settings (ids 114–119) are saved and loaded like the others.
@@ -619,28 +619,32 @@ fn a_record_from_before_the_marine_settings_loads_with_their_defaults() {
     assert_eq!(s.talker, crate::registry::talker_code(*b"HC"));
 }
 
-/// A record saved by the firmware before `adc.vrefint` (id 93; issue #27): it loads in full,
-/// its own `adc.vref` kept, `adc.vrefint` at the datasheet's typical 1.20 V (counted as
-/// missing), in the settings and in the gyro conversion's copy alike.
+/// A record saved by the firmware before `adc.vrefint` and `i2c.clock` (ids 93 and 120; issue
+/// #27): it loads in full, its own `adc.vref` kept, `adc.vrefint` at the datasheet's typical
+/// 1.20 V (in the settings and in the gyro conversion's copy alike) and `i2c.clock` at ST's
+/// 300 kHz, both counted as missing.
 #[test]
-fn a_record_from_before_adc_vrefint_loads_with_its_default() {
-    const NEW: [u16; 1] = [93];
+fn a_record_from_before_adc_vrefint_and_i2c_clock_loads_with_their_defaults() {
+    const NEW: [u16; 2] = [93, 120];
     let mut old = PipelineSettings::default();
     assert!(find("adc.vref").unwrap().set(&mut old, Value::F32(3.25)));
     old.depth.water_density_kg_m3 = 998.0;
     let f = record_without(&old, &NEW, Page::A, 12);
     let l = load(&f);
     assert_eq!(l.source, Source::Flash { page: Page::A, seq: 12 });
-    assert_eq!((l.skipped, l.missing), (0, 1));
+    assert_eq!((l.skipped, l.missing), (0, 2));
     assert_eq!(l.settings, old);
     assert_eq!((l.settings.adc.vrefint_v, l.settings.gyro.scale.vrefint_v), (1.20, 1.20));
     assert_eq!((l.settings.adc.vref_v, l.settings.gyro.scale.vref_v), (3.25, 3.25));
-    // A record with it keeps it.
+    assert_eq!(l.settings.i2c_clock_khz, 300);
+    // A record with them keeps them.
     let mut new = old;
     assert!(find("adc.vrefint").unwrap().set(&mut new, Value::F32(1.234)));
+    assert!(find("i2c.clock").unwrap().set(&mut new, Value::U16(100)));
     let mut f = SimFlash::new();
     save(&mut f, &new).unwrap();
     let l = load(&f);
     assert_eq!((l.skipped, l.missing), (0, 0));
     assert_eq!((l.settings.adc.vrefint_v, l.settings.gyro.scale.vrefint_v), (1.234, 1.234));
+    assert_eq!(l.settings.i2c_clock_khz, 100);
 }

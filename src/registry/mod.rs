@@ -191,7 +191,7 @@ impl Scale {
 }
 
 /// The units of the table ([`Setting::unit`]).
-pub const UNITS: [&str; 18] = [
+pub const UNITS: [&str; 19] = [
     "",
     "(deg/s)2",
     "(deg/s)2/s",
@@ -210,6 +210,7 @@ pub const UNITS: [&str; 18] = [
     "Pa",
     "kg/m3",
     "m/s2",
+    "kHz",
 ];
 
 /// The index of `unit` in [`UNITS`] (for the table, at compile time: a unit missing from

@@ -723,4 +723,14 @@ settings_table! {
         .hdm),
     flag!(118, "output.rot", "send `$--ROT` (rate of turn)", |s| s.sentences.rot),
     flag!(119, "output.xdr", "send `$--XDR` (pitch, roll, depth)", |s| s.sentences.xdr),
+    // The I²C bus.
+    uint!(
+        120,
+        "i2c.clock",
+        "kHz",
+        100.0,
+        400.0,
+        "I2C2 clock (the LSM303DLH's bus); 300: ST's own firmware for this board (its HAL_LSM303DLH.h), a longer byte for the errata's software events (ES0340 2.13.2). Read at boot: SAVE and reset to apply",
+        |s| s.i2c_clock_khz
+    ),
 }

@@ -157,6 +157,24 @@ fn adc_vrefint_round_trips_and_scales_gyro_and_depth() {
     assert!((volts(&d) - 0.975_61).abs() < 1e-5, "{}", volts(&d));
 }
 
+/// `i2c.clock` (issue #27): kHz, 100–400, default 300 (ST's `LSM_I2C_Speed` for this board).
+#[test]
+fn i2c_clock_round_trips_within_100_to_400_khz() {
+    let e = find("i2c.clock").unwrap();
+    let d = PipelineSettings::default();
+    assert_eq!(e.get(&d), Value::U16(300));
+    assert_eq!(d.i2c_clock_khz, 300);
+    assert_eq!(e.parse(&["99"]), Err(ValueError::Range));
+    assert_eq!(e.parse(&["401"]), Err(ValueError::Range));
+    let mut s = d;
+    assert!(e.set(&mut s, e.parse(&["400"]).unwrap()));
+    assert_eq!((s.i2c_clock_khz, text(e, &e.get(&s)).as_str()), (400, "400"));
+    assert!(e.set(&mut s, e.parse(&["100"]).unwrap()));
+    assert_eq!(s.i2c_clock_khz, 100);
+    // Not a setting of the filter or the conditioning: a `SET` rebuilds neither.
+    assert_eq!(e.part(), Part::Other);
+}
+
 #[test]
 fn bad_values_are_refused_with_the_right_reason() {
     let f = find("gate.norm_tolerance").unwrap();

@@ -131,6 +131,34 @@ pub fn clear_bus(lines: &mut impl BusLines) -> Clear {
     }
 }
 
+/// The I²C2 clock the peripheral runs at (RM0008 §26.6.8, I2C_CCR).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct BusClock {
+    /// Fast mode (F/S = 1, duty 2:1: a period is 3 · CCR PCLK1 cycles); else standard mode
+    /// (a period is 2 · CCR cycles, CCR ≥ 4).
+    pub fast: bool,
+    /// The CCR field.
+    pub ccr: u32,
+    /// The SCL frequency, Hz: PCLK1 / (3 · CCR) or PCLK1 / (2 · CCR), rounded down. Given to the
+    /// HAL's `Mode`, its own divider (`PCLK1 / (3 · f)`, rounded down) gives back `ccr`.
+    pub hz: u32,
+}
+
+/// The bus clock for a setting of `khz` (`i2c.clock`) at APB1 `pclk1_hz`: the highest at or
+/// below it that the integer divider reproduces exactly, standard mode up to 100 kHz, fast
+/// mode with a 2:1 duty cycle above. (The HAL rounds its divider down, i.e. the clock up:
+/// 32 MHz / (3 × 400 kHz) = 26.7 would run the bus at 410 kHz.)
+pub fn bus_clock(pclk1_hz: u32, khz: u16) -> BusClock {
+    let max_hz = u32::from(khz).max(1) * 1000;
+    if max_hz <= 100_000 {
+        let ccr = pclk1_hz.div_ceil(2 * max_hz).max(4);
+        BusClock { fast: false, ccr, hz: pclk1_hz / (2 * ccr) }
+    } else {
+        let ccr = pclk1_hz.div_ceil(3 * max_hz).max(1);
+        BusClock { fast: true, ccr, hz: pclk1_hz / (3 * ccr) }
+    }
+}
+
 /// A bus that does whole transfers: the HAL's `BlockingI2c` through its inherent methods (no
 /// `transaction`, which is `todo!()` there).
 pub trait RawI2c {

@@ -334,3 +334,28 @@ fn repeated_failures_clear_the_bus_but_missing_acknowledges_do_not() {
     assert_eq!((bus.counters.clears, bus.counters.nacks), (2, 10));
     assert_eq!(bus.counters.errors, u32::from(FAILURES_BEFORE_CLEAR) + 10);
 }
+
+/// The bus clock by hand (RM0008 §26.6.8: fast mode T = 3 · CCR / PCLK1 at duty 2:1, standard
+/// mode T = 2 · CCR / PCLK1). PCLK1 is 36 MHz from the crystal (72 MHz / 2), 32 MHz from HSI
+/// (64 MHz / 2).
+#[test]
+fn the_bus_clock_is_the_highest_exact_one_at_or_below_the_setting() {
+    // 36 MHz: 300 kHz is CCR 40 exactly, 400 kHz CCR 30, 100 kHz standard CCR 180.
+    assert_eq!(bus_clock(36_000_000, 300), BusClock { fast: true, ccr: 40, hz: 300_000 });
+    assert_eq!(bus_clock(36_000_000, 400), BusClock { fast: true, ccr: 30, hz: 400_000 });
+    assert_eq!(bus_clock(36_000_000, 100), BusClock { fast: false, ccr: 180, hz: 100_000 });
+    // 32 MHz: 400 kHz would need CCR 26.7; 27 gives 395,061 Hz (26 would be 410 kHz). 300 kHz
+    // needs 35.6: 36 gives 296,296 Hz.
+    assert_eq!(bus_clock(32_000_000, 400), BusClock { fast: true, ccr: 27, hz: 395_061 });
+    assert_eq!(bus_clock(32_000_000, 300), BusClock { fast: true, ccr: 36, hz: 296_296 });
+    // 36 MHz, 350 kHz: CCR 34.3 → 35, 342,857 Hz.
+    assert_eq!(bus_clock(36_000_000, 350), BusClock { fast: true, ccr: 35, hz: 342_857 });
+    // The HAL's divider (PCLK1 / (3 · f), rounded down) gives the same CCR back.
+    for pclk1 in [32_000_000, 36_000_000] {
+        for khz in [101, 150, 200, 250, 300, 333, 350, 399, 400] {
+            let c = bus_clock(pclk1, khz);
+            assert!(c.fast && c.hz <= u32::from(khz) * 1000, "{pclk1} {khz}: {c:?}");
+            assert_eq!(pclk1 / (3 * c.hz), c.ccr, "{pclk1} {khz}");
+        }
+    }
+}
