@@ -246,7 +246,8 @@ mod firmware {
             imu::ADDR_TIMEOUT_US,
             imu::DATA_TIMEOUT_US,
         );
-        // Every transfer with the ADC's interrupt and below masked (ES0340 §2.13.2; `imu::Masked`); the bus cleared now (a slave
+        // Every transfer with the ADC's interrupt and below masked, the reads' errata windows
+        // with every interrupt (ES0340 §2.13.2; `imu::Masked`, `imu::Primask`); the bus cleared now (a slave
         // may still be in a transfer the reset cut short) and after repeated failures.
         let bus = imu::Bus::new(imu::HalBus::new(i2c, sysclk_hz), imu::Masked);
         let bus_clear = bus.counters.last_clear;

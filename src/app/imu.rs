@@ -2,22 +2,40 @@
 //! read schedule with its retries, re-configuration and stuck-data detection is the library's
 //! [`inemo_ahrs::supervision::imu::Imu`] (host-tested with injected faults).
 //!
-//! Every transfer is bounded by `BlockingI2c`'s DWT timeouts ([`START_TIMEOUT_US`] per START
-//! try, [`START_RETRIES`] tries with a peripheral reset in between,
-//! [`ADDR_TIMEOUT_US`], [`DATA_TIMEOUT_US`] per byte), so a dead or stuck bus costs about 1 ms
-//! per failed read and never hangs the filter. Every transfer runs with interrupts masked and
-//! the bus is cleared at boot and after repeated failures: the library's
-//! [`GuardedBus`](inemo_ahrs::supervision::i2c_bus::GuardedBus) (host-tested against a model of
-//! a stuck slave); here only its hardware: [`HalBus`] (the HAL's whole transfers, never its
-//! `todo!()` `transaction`), [`Masked`] and [`Pins`] (PB10/PB11 as open-drain GPIOs).
+//! Every transfer is bounded by DWT timeouts ([`START_TIMEOUT_US`] per START try,
+//! [`START_RETRIES`] tries with a peripheral reset in between, [`ADDR_TIMEOUT_US`],
+//! [`DATA_TIMEOUT_US`] per byte), so a dead or stuck bus costs about 1 ms per failed read and
+//! never hangs the filter. The bus is cleared at boot and after repeated failures: the
+//! library's [`GuardedBus`](inemo_ahrs::supervision::i2c_bus::GuardedBus) (host-tested against
+//! a model of a stuck slave); here only its hardware: [`HalBus`], [`Masked`] and [`Pins`]
+//! (PB10/PB11 as open-drain GPIOs).
+//!
+//! **The errata windows (issue #27 point 6).** The reads (`write_read`, `read`) are no longer
+//! the HAL's: they run the library's [`i2c_master`] steps on I2C2's registers ([`I2c2Regs`]),
+//! whose byte-time windows of ES0340 §2.13.2 (1 byte: ADDR cleared + STOP; 2 bytes: ADDR
+//! cleared + ACK off, then STOP + first read; N ≥ 3: DataN−2 read + STOP + DataN−1 read) run
+//! with **every** interrupt masked ([`Primask`], `cortex_m::interrupt::free`), as ST's own
+//! STM32F1 code does; before, BASEPRI left SysTick and USART2 RX able to interrupt them. The
+//! image links only the N ≥ 3 window (the LSM303DLH is read in blocks of 6 and 3 bytes): in the
+//! release build it is 7 instructions from `cpsid i` to `msr PRIMASK` (`Lsm303dlh::read_regs`:
+//! two DR reads, CR1 read-modify-write for STOP), 4 of them I2C2 accesses; counted at no more
+//! than 10 core cycles per APB1 access (an assumption, not measured), under 50 cycles: 0.7 µs
+//! at 72 MHz, against the 2,160 cycles (30 µs) one byte takes at 300 kHz
+//! (`i2c_master::byte_cycles`). Writes stay the HAL's (no reception window in them). The
+//! whole-transfer BASEPRI mask ([`Masked`]) is kept, no longer for the errata: it keeps the ADC
+//! interrupt and the tasks below from stretching a transfer, so its duration stays its bus
+//! time, as the filter's cycle budget was measured with; dropping it is a change to measure on
+//! a board first.
 
 use core::sync::atomic::{compiler_fence, Ordering};
 
+use cortex_m::peripheral::DWT;
 use inemo_ahrs::lsm303dlh::Error;
 use inemo_ahrs::supervision::i2c_bus::{self, BusError, BusLines, Clear, GuardedBus, Mask, RawI2c};
+use inemo_ahrs::supervision::i2c_master::{self, Critical, Flag, Regs};
 use inemo_ahrs::supervision::imu::ImuEvent;
 use stm32f1xx_hal::{
-    i2c::{self, BlockingI2c},
+    i2c::{self, BlockingI2c, NoAcknowledgeSource},
     pac,
 };
 
@@ -36,18 +54,31 @@ const CRH_GPIO: u32 = 0x7700;
 const SCL: u32 = 1 << 10;
 const SDA: u32 = 1 << 11;
 
-/// The HAL's blocking I²C2 through its inherent whole-transfer methods, and the bus clear on
-/// its pins.
+/// The HAL's blocking I²C2 (its initialisation, reset and writes) with the reads done here
+/// step by step ([`i2c_master`], the errata windows under PRIMASK), and the bus clear on its
+/// pins.
 pub struct HalBus {
     i2c: BlockingI2c<pac::I2C2>,
     /// Core cycles in half a 100 kHz clock period (5 µs): the clear runs at standard mode.
     half_period_cycles: u32,
+    /// The waits' bounds, core cycles ([`START_TIMEOUT_US`], [`ADDR_TIMEOUT_US`],
+    /// [`DATA_TIMEOUT_US`]), as the HAL's own.
+    start_cycles: u32,
+    addr_cycles: u32,
+    data_cycles: u32,
 }
 
 impl HalBus {
-    /// The bus; `sysclk_hz` times the bus clear.
+    /// The bus; `sysclk_hz` times the bus clear and the waits.
     pub fn new(i2c: BlockingI2c<pac::I2C2>, sysclk_hz: u32) -> Self {
-        HalBus { i2c, half_period_cycles: (sysclk_hz / 200_000).max(1) }
+        let cycles = |us: u32| us.saturating_mul(sysclk_hz / 1_000_000);
+        HalBus {
+            i2c,
+            half_period_cycles: (sysclk_hz / 200_000).max(1),
+            start_cycles: cycles(START_TIMEOUT_US),
+            addr_cycles: cycles(ADDR_TIMEOUT_US),
+            data_cycles: cycles(DATA_TIMEOUT_US),
+        }
     }
 }
 
@@ -57,10 +88,19 @@ impl RawI2c for HalBus {
         self.i2c.write(addr, bytes)
     }
     fn read(&mut self, addr: u8, buf: &mut [u8]) -> Result<(), i2c::Error> {
-        self.i2c.read(addr, buf)
+        i2c_master::read(&mut I2c2Regs(self), &mut Primask, addr, buf, START_RETRIES)
     }
     fn write_read(&mut self, addr: u8, bytes: &[u8], buf: &mut [u8]) -> Result<(), i2c::Error> {
-        self.i2c.write_read(addr, bytes, buf)
+        if bytes.is_empty() {
+            return self.read(addr, buf);
+        }
+        let mut regs = I2c2Regs(self);
+        i2c_master::write_no_stop(&mut regs, addr, bytes, START_RETRIES)?;
+        if buf.is_empty() {
+            regs.stop();
+            return regs.wait_stop();
+        }
+        i2c_master::read(&mut regs, &mut Primask, addr, buf, START_RETRIES)
     }
     fn clear(&mut self) -> Clear {
         // SAFETY: GPIOB's CRH bits of PB10/PB11 and their ODR/IDR bits, which belong to the
@@ -77,6 +117,118 @@ impl RawI2c for HalBus {
         // ES0340 §2.13.7).
         self.i2c.reset();
         found
+    }
+}
+
+/// Every interrupt masked (PRIMASK) for the errata windows of [`i2c_master`]: a few register
+/// accesses each (their length: `docs/firmware.md`).
+pub struct Primask;
+
+impl Critical for Primask {
+    #[inline(always)]
+    fn free<R>(&mut self, f: impl FnOnce() -> R) -> R {
+        cortex_m::interrupt::free(|_| f())
+    }
+}
+
+/// I²C2's registers for [`i2c_master`]: the peripheral the [`HalBus`] owns (its `BlockingI2c`
+/// is borrowed for the whole transfer); the waits as the HAL's (`wait_for_flag!`: BERR, ARLO,
+/// AF, OVR checked and cleared first), bounded by the DWT cycle counter.
+struct I2c2Regs<'a>(&'a mut HalBus);
+
+impl I2c2Regs<'_> {
+    #[inline(always)]
+    fn regs(&self) -> &pac::i2c1::RegisterBlock {
+        // SAFETY: I2C2's registers; the `BlockingI2c` that owns them is borrowed mutably for
+        // as long as this lives, so nothing else touches them.
+        unsafe { &*pac::I2C2::ptr() }
+    }
+}
+
+impl Regs for I2c2Regs<'_> {
+    type Error = i2c::Error;
+    #[inline(always)]
+    fn start(&mut self) {
+        // Writing 0 clears SR1's error flags (rc_w0) and leaves its read-only bits.
+        self.regs().sr1().write(|w| unsafe { w.bits(0) });
+        self.regs().cr1().modify(|_, w| w.start().set_bit());
+    }
+    #[inline(always)]
+    fn stop(&mut self) {
+        self.regs().cr1().modify(|_, w| w.stop().set_bit());
+    }
+    #[inline(always)]
+    fn set_ack(&mut self, on: bool) {
+        self.regs().cr1().modify(|_, w| w.ack().bit(on));
+    }
+    #[inline(always)]
+    fn set_pos(&mut self, on: bool) {
+        self.regs().cr1().modify(|_, w| w.pos().bit(on));
+    }
+    #[inline(always)]
+    fn write_dr(&mut self, byte: u8) {
+        self.regs().dr().write(|w| w.dr().set(byte));
+    }
+    #[inline(always)]
+    fn read_dr(&mut self) -> u8 {
+        self.regs().dr().read().dr().bits()
+    }
+    #[inline(always)]
+    fn clear_addr(&mut self) {
+        self.regs().sr1().read();
+        self.regs().sr2().read();
+    }
+    fn wait(&mut self, flag: Flag) -> Result<(), i2c::Error> {
+        let (cycles, nack) = match flag {
+            Flag::Sb => (self.0.start_cycles, NoAcknowledgeSource::Unknown),
+            Flag::Addr => (self.0.addr_cycles, NoAcknowledgeSource::Address),
+            Flag::Txe | Flag::Btf | Flag::Rxne => (self.0.data_cycles, NoAcknowledgeSource::Data),
+        };
+        let started = DWT::cycle_count();
+        loop {
+            let sr1 = self.regs().sr1().read();
+            if sr1.berr().bit_is_set() {
+                self.regs().sr1().write(|w| w.berr().clear_bit());
+                return Err(i2c::Error::Bus);
+            } else if sr1.arlo().bit_is_set() {
+                self.regs().sr1().write(|w| w.arlo().clear_bit());
+                return Err(i2c::Error::ArbitrationLoss);
+            } else if sr1.af().bit_is_set() {
+                self.regs().sr1().write(|w| w.af().clear_bit());
+                return Err(i2c::Error::NoAcknowledge(nack));
+            } else if sr1.ovr().bit_is_set() {
+                self.regs().sr1().write(|w| w.ovr().clear_bit());
+                return Err(i2c::Error::Overrun);
+            }
+            let set = match flag {
+                Flag::Sb => sr1.sb().bit_is_set(),
+                Flag::Addr => sr1.addr().bit_is_set(),
+                Flag::Txe => sr1.tx_e().bit_is_set(),
+                Flag::Btf => sr1.btf().bit_is_set(),
+                Flag::Rxne => sr1.rx_ne().bit_is_set(),
+            };
+            if set {
+                return Ok(());
+            }
+            if DWT::cycle_count().wrapping_sub(started) >= cycles {
+                return Err(i2c::Error::Timeout);
+            }
+        }
+    }
+    fn wait_stop(&mut self) -> Result<(), i2c::Error> {
+        let started = DWT::cycle_count();
+        while self.regs().cr1().read().stop().bit_is_set() {
+            if DWT::cycle_count().wrapping_sub(started) >= self.0.data_cycles {
+                return Err(i2c::Error::Timeout);
+            }
+        }
+        Ok(())
+    }
+    fn is_nack(e: &i2c::Error) -> bool {
+        matches!(e, i2c::Error::NoAcknowledge(_))
+    }
+    fn reset(&mut self) {
+        self.0.i2c.reset();
     }
 }
 
@@ -110,13 +262,13 @@ impl BusLines for Pins<'_> {
     }
 }
 
-/// The logical priority up to which interrupts are held off during a transfer: the ADC's DMA
-/// interrupt (3) and every task below it. Above it run only the USART2 RX interrupt (4) and
-/// SysTick (hardware priority 0, the monotonic's): each takes a few µs, well inside the
-/// 22.5 µs of a byte at 400 kHz in which ES0340 §2.13.2's events must be handled. Masking them
-/// too (PRIMASK, as ST's own driver does) would cost more than it protects: the SysTick
-/// monotonic counts its 10 kHz ticks by interrupt, so a 0.2 ms mask loses two (the filter's
-/// period would stretch by 1 %), and the USART, which holds one received byte, would overrun.
+/// The logical priority up to which interrupts are held off during a whole transfer: the ADC's
+/// DMA interrupt (3) and every task below it. Above it run the USART2 RX interrupt (4) and
+/// SysTick (hardware priority 0, the monotonic's), except inside the errata windows, which
+/// [`Primask`] masks completely for under a µs (module docs). PRIMASK for the whole transfer
+/// (about 0.2 ms) would cost more than it protects: the SysTick monotonic counts its 10 kHz
+/// ticks by interrupt, so it would lose two (the filter's period would stretch by 1 %), and the
+/// USART, which holds one received byte, would overrun.
 pub const MASKED_PRIORITY: u8 = 3;
 /// BASEPRI for [`MASKED_PRIORITY`]: RTIC's logical priority p is hardware priority
 /// (2^NVIC_PRIO_BITS − p) << (8 − NVIC_PRIO_BITS) (4 priority bits on the STM32F1).

@@ -7,8 +7,9 @@
 //!   "Some software events must be managed before the current byte is being transferred"). The
 //!   workaround the errata gives is DMA or an interrupt mask around the transfer, which is what
 //!   ST's own iNEMO driver does. [`GuardedBus`] runs every transfer inside [`Mask::masked`]
-//!   (the firmware: BASEPRI up to the ADC's DMA interrupt, about 0.2 ms for a 6-byte read at
-//!   400 kHz; what stays unmasked and why: `app::imu::Masked`).
+//!   (the firmware: BASEPRI up to the ADC's DMA interrupt, about 0.2 ms for a 6-byte read;
+//!   what stays unmasked and why: `app::imu::Masked`), and the reads' byte-time windows
+//!   themselves run with every interrupt masked ([`super::i2c_master`], issue #27).
 //! - **Only the transfers the HAL implements.** `stm32f1xx-hal` 0.11's
 //!   `BlockingI2c::transaction` is `todo!()` (a panic). The bus under a [`GuardedBus`] is a
 //!   [`RawI2c`], which has no `transaction`: only `write`, `read` and `write_read`, each a

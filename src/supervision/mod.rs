@@ -8,6 +8,8 @@
 //! - [`fault_record`]: the HardFault/panic record kept in RAM across a reset (magic, CRC);
 //! - [`i2c_bus`]: the I²C bus with every transfer under an interrupt mask, and the bus clear
 //!   (nine clocks and a STOP) at boot and after repeated failures;
+//! - [`i2c_master`]: the I²C master's transfer steps, the errata's byte-time windows of a
+//!   reception masked completely;
 //! - [`selftest`]: the bring-up self-test's grades (`SELFTEST`, and at boot);
 //! - [`depth_probe`]: whether the depth input is driven or floats (read with each pull);
 //! - [`flash_stall`]: the monotonic's ticks a flash erase costs (`SAVE`);
@@ -20,6 +22,7 @@ pub mod depth_probe;
 pub mod fault_record;
 pub mod flash_stall;
 pub mod i2c_bus;
+pub mod i2c_master;
 pub mod imu;
 pub mod led;
 pub mod reset_cause;
