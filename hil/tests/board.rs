@@ -120,8 +120,9 @@ mod tests {
         Board { dp: parts, rcc, hse, flash }
     }
 
-    /// I²C2 at the firmware's clock (`app::i2c_clock_hz`: 400 kHz or the next below that the
-    /// divider makes exactly).
+    /// I²C2 at the firmware's default clock (`supervision::i2c_bus::bus_clock` of the default
+    /// `i2c.clock`, `board::I2C_FREQUENCY_HZ`: 300 kHz or the next below that the divider makes
+    /// exactly).
     fn i2c_hz(pclk1: u32) -> u32 {
         let ccr = pclk1.div_ceil(3 * board::I2C_FREQUENCY_HZ).max(1);
         pclk1 / (3 * ccr)

@@ -13,7 +13,8 @@
 //! - **Only the transfers the HAL implements.** `stm32f1xx-hal` 0.11's
 //!   `BlockingI2c::transaction` is `todo!()` (a panic). The bus under a [`GuardedBus`] is a
 //!   [`RawI2c`], which has no `transaction`: only `write`, `read` and `write_read`, each a
-//!   complete transfer the HAL implements. [`GuardedBus`]'s own
+//!   complete transfer (the firmware: the HAL's `write`, and reads by
+//!   [`super::i2c_master`]). [`GuardedBus`]'s own
 //!   [`I2c::transaction`] maps the three shapes to them and refuses any other
 //!   ([`BusError::Unsupported`]) without touching the bus: nothing can reach the `todo!()`.
 //! - **Bus clear.** A reset in the middle of a read (watchdog, probe, re-flash) can leave a
