@@ -573,7 +573,7 @@ impl Setting {
 /// True when every setting (of `part`; all for `None`) has the same value in `a` and `b`,
 /// values compared as the derived `PartialEq` does (`f32` as numbers: −0 = 0, NaN ≠ NaN).
 /// The registry reaches every field that commands and the flash record change, and the other
-/// fields are constant or follow from those (`adc.vref`), so for settings the device derives
+/// fields are constant or follow from those (`adc.vref`, `adc.vrefint`), so for settings the device derives
 /// from the defaults this is the structs' equality (tested) at a fraction of its code.
 pub fn same(a: &PipelineSettings, b: &PipelineSettings, part: Option<Part>) -> bool {
     let (mut a, mut b) = (*a, *b);
