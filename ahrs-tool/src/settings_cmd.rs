@@ -23,25 +23,7 @@ fn ok_reply(link: &mut Link, body: &str) -> Result<Reply, String> {
 
 /// Every setting of the device, `(name, value)` as it prints them, in its `LIST` order.
 pub fn read_device(link: &mut Link) -> Result<Vec<(String, String)>, String> {
-    // OK,LIST,<i>,<count>,<name>,<type>,<unit>
-    let first = ok_reply(link, "LIST,0")?;
-    let count: usize = first
-        .fields
-        .get(1)
-        .and_then(|c| c.parse().ok())
-        .ok_or_else(|| format!("unexpected reply {}", first.line))?;
-    let mut out = Vec::with_capacity(count);
-    for i in 0..count {
-        let r = if i == 0 { first.clone() } else { ok_reply(link, &format!("LIST,{i}"))? };
-        let name = r.fields.get(2).ok_or_else(|| format!("unexpected reply {}", r.line))?;
-        // OK,GET,<name>,<value...>
-        let g = ok_reply(link, &format!("GET,{name}"))?;
-        if g.fields.len() < 2 {
-            return Err(format!("unexpected reply {}", g.line));
-        }
-        out.push((name.clone(), g.fields[1..].join(",")));
-    }
-    Ok(out)
+    Ok(list_device(link)?.into_iter().map(|r| (r.name, r.value)).collect())
 }
 
 /// One setting as `LIST` and `GET` describe it.
