@@ -56,11 +56,13 @@ impl UsbConsole {
             alloc.insert(UsbBus::new(Peripheral { usb, pin_dm: dm, pin_dp: dp }));
         let serial = SerialPort::new(alloc);
         let strings = StringDescriptors::default().manufacturer("Seahog").product("iNEMO AHRS");
-        let dev = match UsbDeviceBuilder::new(alloc, VID_PID).strings(&[strings]) {
-            Ok(builder) => builder.device_class(USB_CLASS_CDC).build(),
-            // Only for more than 16 languages: a programming error.
-            Err(_) => panic!("USB string descriptors"),
+        // `strings` fails only for more than 16 languages (one here); should it ever, the
+        // device enumerates without names rather than the firmware stopping.
+        let builder = match UsbDeviceBuilder::new(alloc, VID_PID).strings(&[strings]) {
+            Ok(builder) => builder,
+            Err(_) => UsbDeviceBuilder::new(alloc, VID_PID),
         };
+        let dev = builder.device_class(USB_CLASS_CDC).build();
         UsbConsole { dev, serial, lines: PortLines::new(Port::Usb), pull_up }
     }
 
