@@ -208,7 +208,7 @@ impl Cov6 {
     pub fn update_tilt(
         &mut self,
         z: [f32; 2],
-        r: f32,
+        r: [f32; 2],
         h: &TiltRows,
         yaw: YawRow,
     ) -> Option<[f32; N]> {
@@ -231,7 +231,7 @@ impl Cov6 {
     fn update_tracked(
         &mut self,
         z: [f32; 2],
-        r: f32,
+        r: [f32; 2],
         h: &TiltRows,
         yaw_gain: bool,
     ) -> Option<[f32; N]> {
@@ -243,7 +243,7 @@ impl Cov6 {
             let p = &mut self.m;
             // c = P hᵀ, s = h c + r, innovation after the corrections so far.
             let mut c = [0.0f32; N];
-            let (mut s, mut e) = (r, z[k]);
+            let (mut s, mut e) = (r[k], z[k]);
             for i in 0..n {
                 for l in 0..n {
                     c[i] += p[i][l] * hk[l];
@@ -282,7 +282,7 @@ impl Cov6 {
     /// unrolled over the tilt and bias rows: for each component `k`, `c = P hₖᵀ`,
     /// `s = hₖ c + r`, `δx += c·(zₖ − hₖ δx)/s`, `P ← P − c cᵀ/s`.
     #[inline(always)]
-    fn update_untracked(&mut self, z: [f32; 2], r: f32, h: &TiltRows) -> Option<[f32; N]> {
+    fn update_untracked(&mut self, z: [f32; 2], r: [f32; 2], h: &TiltRows) -> Option<[f32; N]> {
         let mut dx = [0.0f32; N];
         unroll!(k in [0, 1] {
             let j = &h.j[k];
@@ -291,7 +291,7 @@ impl Cov6 {
             unroll!(i in [0, 1, 3, 4, 5] {
                 c[i] = h.w * p[i][k] + p[i][3] * j[0] + p[i][4] * j[1] + p[i][5] * j[2];
             });
-            let s = r + h.w * c[k] + j[0] * c[3] + j[1] * c[4] + j[2] * c[5];
+            let s = r[k] + h.w * c[k] + j[0] * c[3] + j[1] * c[4] + j[2] * c[5];
             if !crate::fcmp::in_pos_range(s, f32::MAX) {
                 return None;
             }
@@ -320,6 +320,26 @@ impl Cov6 {
             });
         });
         Some(dx)
+    }
+
+    /// The NED frame turned about its z axis by the angle whose cosine and sine are `c`, `s`
+    /// (a heading change of the estimate: yaw hold, magnetometer, `set_yaw`): the attitude
+    /// error's x and y components turn with it, `P ← T P Tᵀ` with `T` that rotation on rows and
+    /// columns 0–1 (the bias, in body axes, does not turn).
+    #[cold]
+    pub fn turn_z(&mut self, c: f32, s: f32) {
+        for l in 0..N {
+            let (a, b) = (self.m[0][l], self.m[1][l]);
+            self.m[0][l] = c * a - s * b;
+            self.m[1][l] = s * a + c * b;
+        }
+        for i in 0..N {
+            let (a, b) = (self.m[i][0], self.m[i][1]);
+            self.m[i][0] = c * a - s * b;
+            self.m[i][1] = s * a + c * b;
+        }
+        // Exactly symmetric (the two passes round the 2×2 block's corners differently).
+        self.m[1][0] = self.m[0][1];
     }
 
     /// Scalar Kalman update of state `j` (`H = e_j`) with innovation `z` and measurement
@@ -542,12 +562,12 @@ mod tests {
         for (frozen_yaw, u) in [(false, [0.0; 3]), (true, [0.0; 3]), (true, vert)] {
             let mut p = p0;
             let yaw = if frozen_yaw { YawRow::Frozen } else { YawRow::Free };
-            let dx = p.update_tilt(z, r, &rows(u), yaw).unwrap();
+            let dx = p.update_tilt(z, [r, r], &rows(u), yaw).unwrap();
             if frozen_yaw {
                 // Untracked: the same tilt and bias elements and correction (to rounding: a
                 // different order of sums); row/column 2 untouched, bit for bit.
                 let mut p2 = p0;
-                let dx2 = p2.update_tilt(z, r, &rows(u), YawRow::Untracked).unwrap();
+                let dx2 = p2.update_tilt(z, [r, r], &rows(u), YawRow::Untracked).unwrap();
                 for i in 0..6 {
                     assert!((dx[i] - dx2[i]).abs() <= 1e-6 * dx[i].abs() + 1e-12, "dx {i}");
                     for j in 0..6 {
@@ -610,7 +630,7 @@ mod tests {
         }
         // A measurement whose innovation variance is not positive leaves P alone.
         let mut p = p0;
-        assert_eq!(p.update_tilt(z, -1.0, &rows(vert), YawRow::Untracked), None);
+        assert_eq!(p.update_tilt(z, [-1.0, -1.0], &rows(vert), YawRow::Untracked), None);
         assert_eq!(p, p0);
     }
 

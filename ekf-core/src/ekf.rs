@@ -16,6 +16,7 @@ use crate::{
     gate::AccelGate,
     init::{self, InitStep, Initializer},
     mathf,
+    motion::MotionLevel,
     quaternion::Mat3,
     rest::{RestBlock, RestDetector},
     settings::Settings,
@@ -36,6 +37,11 @@ const MAX_BIAS_VAR: f32 = 1.0;
 /// quantities change by as little, and they are not recomputed (a division among them) every
 /// sample.
 const VAR_DT_ULPS: u32 = 1 << 15;
+
+/// Averaging time of the mean vertical about which the bias is not learned, s: long against
+/// the periods of a vehicle's rocking and swinging (seconds to tens of seconds), so that it is
+/// their mean, not a phase of them (issue #35, cause 2).
+pub const MEAN_VERTICAL_S: f32 = 60.0;
 
 /// Cycles between full covariance health checks (the Cauchy–Schwarz bounds of every
 /// off-diagonal element: 15 products); once a second at 50 Hz.
@@ -62,12 +68,13 @@ pub struct Ekf {
     cycle: u32,
     /// Process noise densities, from the settings.
     noise: ProcessNoise,
-    /// Variance of one tilt measurement component, rad²: the accelerometer's noise
-    /// (`noise.accel_var · accel_var_scale` per sample at `noise.accel_ref_rate`, scaled to the
-    /// sample rate) and the gyro's walk over the low-pass's delay, for the `dt` whose bits are
-    /// `rate_dt`.
-    accel_var: f32,
-    /// The bits of the `dt` for which `accel_var` and the low-pass's coefficients were last
+    /// Variance of the tilt measurement's two components (NED x, y), rad²: the accelerometer's
+    /// noise (`noise.accel_var · accel_var_scale` per sample at `noise.accel_ref_rate`, scaled
+    /// to the sample rate) and the gyro's walk over the low-pass's current delay about that
+    /// axis; recomputed every sample.
+    accel_var: [f32; 2],
+    /// The bits of the `dt` for which `var_ps`, the motion statistic's and the low-pass's
+    /// coefficients were last
     /// computed (0: not yet); they are recomputed when `dt` moves by more than
     /// [`VAR_DT_ULPS`].
     rate_dt: u32,
@@ -78,6 +85,19 @@ pub struct Ekf {
     /// `(gyro_scale_error)² · accel_time_constant`, s: the attitude's process noise per unit of
     /// squared rate, rad²/s per (rad/s)².
     scale_psd: f32,
+    /// The motion's power, which sets the low-pass's time constant.
+    motion: MotionLevel,
+    /// The accelerometer's white-noise variance per sample at the current `dt`, g².
+    var_ps: f32,
+    /// The low-pass's current time constant, s (0: raw samples).
+    tau: f32,
+    /// NED's down axis in body axes (R's third row), averaged over `MEAN_VERTICAL_S`: the
+    /// body axis along which the accelerometer cannot see a bias error on average.
+    mean_down: [f32; 3],
+    /// Time since the start, s, up to [`MEAN_VERTICAL_S`]: the mean is a plain one until then.
+    mean_t: f32,
+    /// `1/|mean_down|`, at most 2.
+    mean_k: f32,
 }
 
 impl Ekf {
@@ -104,7 +124,7 @@ impl Ekf {
                     bias_random_walk: settings.ekf.bias_random_walk,
                 }
             },
-            accel_var: settings.noise.accel_var * settings.ekf.accel_var_scale,
+            accel_var: [settings.noise.accel_var * settings.ekf.accel_var_scale; 2],
             rate_dt: 0,
             moving_start: false,
             lp: TiltLowPass::new(),
@@ -112,6 +132,12 @@ impl Ekf {
                 let k = settings.ekf.gyro_scale_error;
                 k * k * settings.ekf.accel_time_constant
             },
+            motion: MotionLevel::new(),
+            var_ps: settings.noise.accel_var,
+            tau: 0.0,
+            mean_down: [0.0; 3],
+            mean_t: 0.0,
+            mean_k: 1.0,
         }
     }
 
@@ -130,6 +156,18 @@ impl Ekf {
     /// Flags of the last update.
     pub fn last_flags(&self) -> Flags {
         self.last_flags
+    }
+
+    /// The tilt low-pass's time constant in use, s (0: raw samples): the one that follows the
+    /// motion (`motion`).
+    pub fn time_constant(&self) -> f32 {
+        self.tau
+    }
+
+    /// The motion's power per band of the statistic, g² per axis, lowest band first
+    /// (`motion`).
+    pub fn motion_power(&self) -> [f32; crate::motion::BANDS] {
+        self.motion.power()
     }
 
     /// True while rest is declared.
@@ -160,6 +198,10 @@ impl Ekf {
         self.external_yaw = 0.0;
         self.lp.reset();
         self.moving_start = false;
+        let r = self.q.to_rotation_matrix();
+        self.mean_down = r[2];
+        self.mean_t = 0.0;
+        self.mean_k = 1.0;
     }
 
     /// How the covariance treats the yaw error: untracked when nothing observes it (yaw-split
@@ -181,12 +223,13 @@ impl Ekf {
     }
 
     /// The estimate's frame turned about NED z by the yaw quaternion `turn`: the low-passed
-    /// vectors turn with it.
+    /// vectors and the attitude error's covariance (in NED) turn with it.
     #[cold]
     fn turn_lowpass(&mut self, turn: Quaternion) {
         // cos ψ = w² − z², sin ψ = 2wz.
         let (c, s) = (turn.w * turn.w - turn.z * turn.z, mathf::twice(turn.w * turn.z));
         self.lp.turn(c, s);
+        self.p.turn_z(c, s);
     }
 
     /// Gyro propagation of the attitude and covariance. Returns the predicted rotation and the
@@ -242,31 +285,13 @@ impl Ekf {
     }
 
     /// Accelerometer tilt correction: the specific force in the estimate's NED frame,
-    /// low-passed with the fixed time constant `ekf.accel_time_constant` (`tilt_lowpass`); the
+    /// low-passed with the time constant that follows the motion (`motion`, at most
+    /// `ekf.accel_time_constant`; `tilt_lowpass`); the
     /// Kalman update with yaw-split from that low-passed vector. `r` is the predicted rotation;
     /// `norm_g` the sample's norm, g (for the source's gate, off by default).
     fn accel_update(&mut self, dt: f32, a_g: Vec3, norm_g: f32, r: &Mat3) -> Flags {
-        let bits = dt.to_bits();
-        if bits.abs_diff(self.rate_dt) > VAR_DT_ULPS {
-            // Once per sample rate (a measured `dt` that jitters by less than [`VAR_DT_ULPS`]
-            // keeps them: no division per sample): the white noise's variance per sample grows
-            // with the rate, so that the tilt's correction time, in seconds, does not depend on
-            // the rate; the low-pass's coefficients keep its time constant in seconds.
-            //
-            // The variance of one measurement, counted as in the note below: the
-            // accelerometer's noise, and the gyro's noise over the low-pass's delay (its samples
-            // saw the attitude error of their time, not today's, and the gyro's random walk
-            // since is not in the model). Over the filter's weights h that walk has the
-            // variance psd·∬h(u)h(v)·min(u, v) = psd·∫T(t)² dt, T the step response's tail,
-            // e^(−t/τ)·(cos + sin)(t/τ) for this Butterworth: 3/4·τ·psd, by hand. Counted as
-            // τ/dt measurements per τ, 3/4·τ²·psd/dt each.
-            let e = &self.settings.ekf;
-            let tau = e.accel_time_constant;
-            self.accel_var = self.settings.noise.accel_var_per_sample(dt) * e.accel_var_scale
-                + 0.75 * tau * tau * self.noise.gyro_psd_xy / dt;
-            self.lp.set_rate(dt, e.accel_time_constant);
-            self.rate_dt = bits;
-        }
+        let an = horizontal(r, a_g);
+        self.observe_motion(dt, an);
         // The source's gate (off by default): a sample whose norm is not 1 ±
         // `gate.norm_tolerance` g is not used at all, as the source skips its accelerometer
         // update. It keeps a sustained push out of the tilt, but it biases the mean of a
@@ -277,10 +302,18 @@ impl Ekf {
         }
         // Every other valid sample enters the low-pass, however large: leaving out the strong
         // ones would bias the mean.
-        self.lp.push([
-            r[0][0] * a_g.x + r[0][1] * a_g.y + r[0][2] * a_g.z,
-            r[1][0] * a_g.x + r[1][1] * a_g.y + r[1][2] * a_g.z,
-        ]);
+        let psd = self.walk_density(r);
+        let tau = self.motion.time_constant(0.375 * (psd[0] + psd[1]));
+        // Below two samples the low-pass is no average: the samples are used raw.
+        let tau = if tau > 2.0 * dt { tau } else { 0.0 };
+        if tau != self.tau {
+            self.lp.set_rate(dt, tau);
+            self.tau = tau;
+        }
+        let white = self.var_ps * self.settings.ekf.accel_var_scale;
+        let k = 0.75 * tau * tau / dt;
+        self.accel_var = [white + k * psd[0], white + k * psd[1]];
+        self.lp.push(an);
         // Its variance: the low-pass's output is an average over τ, so consecutive outputs
         // are not independent; one output per τ is, with the noise's variance σ²·dt/(2τ) (this
         // Butterworth's noise bandwidth is ω₀/(4ζ) = 1/(2τ)). Counted as τ/dt measurements per
@@ -290,7 +323,29 @@ impl Ekf {
         // see either: not about NED's vertical (R's third row: NED down in body axes), where
         // a bias error turns only the heading. What the low-pass shows along it is the
         // linearisation's (the estimate's small tilt error), not the sensor's.
-        let vertical = if self.settings.ekf.yaw_split { r[2] } else { [0.0; 3] };
+        let vertical = if self.settings.ekf.yaw_split {
+            // A plain mean over the first `MEAN_VERTICAL_S`, then an exponential one.
+            let a = if self.mean_t < MEAN_VERTICAL_S {
+                self.mean_t += dt;
+                dt / self.mean_t
+            } else {
+                dt * (1.0 / MEAN_VERTICAL_S)
+            };
+            unroll!(i in [0, 1, 2] {
+                self.mean_down[i] += a * (r[2][i] - self.mean_down[i]);
+            });
+            // Unit length while the mean stays longer than 0.5 (its 1/length followed by one
+            // Newton step a sample: it moves slowly); shorter, a partial restriction, when
+            // tumbling through every attitude shrinks it.
+            let m = self.mean_down;
+            let n2 = m[0] * m[0] + m[1] * m[1] + m[2] * m[2];
+            let k = self.mean_k;
+            let k = k * (1.5 - 0.5 * n2 * k * k);
+            self.mean_k = if fcmp::lt(k, 2.0) && fcmp::gt(k, 0.0) { k } else { 2.0 };
+            [m[0] * self.mean_k, m[1] * self.mean_k, m[2] * self.mean_k]
+        } else {
+            [0.0; 3]
+        };
         let (z, h) = self.lp.measurement(vertical);
 
         let Some(dx) = self.p.update_tilt(z, self.accel_var, &h, self.yaw_row()) else {
@@ -309,6 +364,35 @@ impl Ekf {
         self.bias += db;
         self.lp.correct([dx[0], dx[1]], db);
         Flags::ACCEL_USED
+    }
+
+    /// The gyros' noise density about NED's x and y axes at the attitude `r`, rad²/s: the body
+    /// axes' densities weighted by how much of each lies along the NED axis, `Σⱼ Rₖⱼ²·ψⱼ`.
+    /// The board's z gyro is 80 times quieter than x and y, so at pitch ±90°, where body z is
+    /// horizontal, one axis walks that much less (issue #35, defect 4).
+    #[inline(always)]
+    fn walk_density(&self, r: &Mat3) -> [f32; 2] {
+        let (xy, z) = (self.noise.gyro_psd_xy, self.noise.gyro_psd_z);
+        [xy + (z - xy) * r[0][2] * r[0][2], xy + (z - xy) * r[1][2] * r[1][2]]
+    }
+
+    /// One sample's horizontal specific force `an` (north, east; g, in the estimate's NED
+    /// frame) into the motion statistic, `dt` s after the last: what depends on the sample
+    /// rate is recomputed when `dt` moves by more than [`VAR_DT_ULPS`].
+    fn observe_motion(&mut self, dt: f32, an: [f32; 2]) {
+        let bits = dt.to_bits();
+        if bits.abs_diff(self.rate_dt) > VAR_DT_ULPS {
+            self.var_ps = self.settings.noise.accel_var_per_sample(dt);
+            self.motion.set_rate(
+                dt,
+                self.settings.ekf.accel_time_constant,
+                self.var_ps,
+                self.noise.gyro_psd_xy,
+            );
+            self.lp.set_rate(dt, self.tau);
+            self.rate_dt = bits;
+        }
+        self.motion.push([-an[1], an[0]]);
     }
 
     /// Magnetometer heading update: only yaw (and the gyro biases) move.
@@ -333,7 +417,9 @@ impl Ekf {
             Some((dx, nis)) if nis <= self.settings.gate.innovation_chi2 => {
                 self.rotate_yaw(dx[2]);
                 self.external_yaw += dx[2];
-                self.bias += Vec3::new(dx[3], dx[4], dx[5]);
+                let db = Vec3::new(dx[3], dx[4], dx[5]);
+                self.bias += db;
+                self.lp.correct([0.0, 0.0], db);
                 Flags::MAG_USED
             }
             _ => {
@@ -375,6 +461,9 @@ impl Ekf {
                     moved_bias += d;
                 }
             }
+            // The low-pass's samples saw the attitude error the old bias built up: a new bias
+            // moves them by J·Δb (issue #35, defect 2).
+            self.lp.correct([0.0, 0.0], moved_bias);
         }
         self.block_q = self.q;
         flags
@@ -426,6 +515,12 @@ impl Ekf {
     }
 }
 
+/// The specific force `a` (body) in NED by the rotation `r`, its north and east parts.
+#[inline(always)]
+fn horizontal(r: &Mat3, a: Vec3) -> [f32; 2] {
+    [r[0][0] * a.x + r[0][1] * a.y + r[0][2] * a.z, r[1][0] * a.x + r[1][1] * a.y + r[1][2] * a.z]
+}
+
 /// Angle (rad, in (−π, π]) of the rotation about NED z that takes attitude `from` to `to`: the
 /// twist about z of `to ⊗ from*` (the heading change in the sense of the inclination/heading
 /// split of `docs/accuracy.md`). Defined at every attitude; any norm.
@@ -451,11 +546,19 @@ impl AttitudeFilter for Ekf {
             match init::feed(init, &mut self.gate, &c) {
                 InitStep::Pending(q) => {
                     self.q = q;
+                    if let Some((a, _)) = accel {
+                        // The window's samples feed the motion statistic too, in the
+                        // provisional attitude's frame: the filter starts knowing how the
+                        // vehicle moves.
+                        let an = horizontal(&q.to_rotation_matrix(), a);
+                        self.observe_motion(c.dt_rate, an);
+                    }
                     self.last_flags = flags | Flags::INITIALISING;
                     return self.last_flags;
                 }
                 InitStep::Done(q, b) => {
                     let var = init.bias_variance(&self.settings.noise);
+                    let tilt_var = init.tilt_variance(&self.settings.noise);
                     let moving = init.was_moving();
                     let level = init.motion_level();
                     self.start(q, b);
@@ -474,6 +577,12 @@ impl AttitudeFilter for Ekf {
                         for i in 0..3 {
                             self.p.m[3 + i][3 + i] = v[i];
                         }
+                    }
+                    if let Some(v) = tilt_var {
+                        // ... and the tilt, the mean of its samples: the first raw sample after
+                        // it is one more sample, not a measurement 2° better than the start.
+                        self.p.m[0][0] = v;
+                        self.p.m[1][1] = v;
                     }
                     // The window's last sample still moves the state (below), so a window
                     // that ends as motion starts loses nothing.
@@ -555,6 +664,7 @@ impl AttitudeFilter for Ekf {
 mod tests {
     use super::*;
     use crate::mathf::deg;
+    use crate::Euler;
     use proptest::prelude::*;
 
     proptest! {
@@ -637,31 +747,59 @@ mod tests {
         );
     }
 
-    /// The measurement variance follows `dt` (the accelerometer's noise times
-    /// `accel_var_scale`, and the gyro's walk over the low-pass's delay), but only once `dt`
-    /// has moved by more than [`VAR_DT_ULPS`] (the firmware's measured `dt` jitters by a few
-    /// cycles): exactly 2¹⁵ units in the last place keep it, one more recomputes it.
+    /// The accelerometer's white-noise variance per sample follows `dt` (constant density,
+    /// times `accel_var_scale`), but only once `dt` has moved by more than [`VAR_DT_ULPS`]
+    /// (the firmware's measured `dt` jitters by a few cycles): exactly 2¹⁵ units in the last
+    /// place keep it, one more recomputes it. On a still board the samples are used raw
+    /// (τ = 0) and that is the whole measurement variance.
     #[test]
     fn the_measurement_variance_follows_the_sample_rate_past_the_jitter_allowance() {
         let mut s = Settings::default();
         s.ekf.accel_var_scale = 4.0;
         let mut f = quiet_filter(s);
         let level = Vec3::new(0.0, 0.0, -1.0);
+        // One second for the motion statistic to learn that the board is still.
+        for _ in 0..60 {
+            f.accel_update(0.02, level, 1.0, &IDENTITY);
+        }
         let at = |f: &mut Ekf, dt: f32| {
             f.accel_update(dt, level, 1.0, &IDENTITY);
+            assert_eq!(f.tau, 0.0, "a still board takes the samples raw");
             f.accel_var
         };
-        // By hand from the digest: accelerometer 2.376e-6 g² per sample at 50 Hz; gyro x, y
-        // 0.337 and 0.275 (°/s)² per sample at 50 Hz, their mean density 0.306 (°/s)² · 0.02 s
-        // = 1.8642e-6 rad²/s; τ = 2.5 s: 3/4 · 6.25 · 1.8642e-6 / dt.
-        let want = |dt: f32| 4.0 * 2.376e-6 * (0.02 / dt) + 0.75 * 6.25 * 1.8642e-6 / dt;
+        // By hand from the digest: 2.376e-6 g² per sample at 50 Hz, constant density.
+        let want = |dt: f32| 4.0 * 2.376e-6 * (0.02 / dt);
         let v = at(&mut f, 0.02);
-        assert!((v / want(0.02) - 1.0).abs() < 1e-4, "{v} vs {}", want(0.02));
+        assert!((v[0] / want(0.02) - 1.0).abs() < 1e-4, "{v:?} vs {}", want(0.02));
+        assert_eq!(v[0].to_bits(), v[1].to_bits());
         let jitter = f32::from_bits(0.02f32.to_bits() + (1 << 15));
-        assert_eq!(at(&mut f, jitter).to_bits(), v.to_bits(), "recomputed within the allowance");
+        assert_eq!(
+            at(&mut f, jitter)[0].to_bits(),
+            v[0].to_bits(),
+            "recomputed within the allowance"
+        );
         let moved = f32::from_bits(0.02f32.to_bits() + (1 << 15) + 1);
-        assert!((at(&mut f, moved) / want(moved) - 1.0).abs() < 1e-4, "not recomputed past it");
-        assert!((at(&mut f, 0.01) / want(0.01) - 1.0).abs() < 1e-4);
+        assert!((at(&mut f, moved)[0] / want(moved) - 1.0).abs() < 1e-4, "not recomputed past it");
+        assert!((at(&mut f, 0.01)[0] / want(0.01) - 1.0).abs() < 1e-4);
+    }
+
+    /// The gyro's walk over the low-pass's delay, per NED axis, weights each body gyro by how
+    /// much of it lies along that axis (issue #35, defect 4): level, both axes walk with the
+    /// x/y gyros' mean density; pitched 90° (body z along NED north... up to sign), NED x
+    /// walks with the z gyro's, 80 times quieter. By hand: the digest's densities 0.306 (°/s)²
+    /// ·0.02 s = 1.8642e-6 rad²/s (x/y mean) and 4.19e-3 (°/s)²·0.02 s = 2.5525e-8 rad²/s (z).
+    #[test]
+    fn the_gyro_walk_follows_the_attitude() {
+        let f = quiet_filter(Settings::default());
+        let (xy, z) = (1.8642e-6f32, 2.5525e-8f32);
+        let level = f.walk_density(&IDENTITY);
+        for k in 0..2 {
+            assert!((level[k] / xy - 1.0).abs() < 1e-3, "{level:?}");
+        }
+        let r = Euler::new(0.0, deg(90.0), 0.0).to_quaternion().to_rotation_matrix();
+        let pitched = f.walk_density(&r);
+        assert!((pitched[0] / z - 1.0).abs() < 1e-3, "{pitched:?}, by hand {z}");
+        assert!((pitched[1] / xy - 1.0).abs() < 1e-3, "{pitched:?}, by hand {xy}");
     }
 
     /// A started filter at the identity with a covariance so small that the Kalman correction
@@ -676,19 +814,23 @@ mod tests {
 
     const IDENTITY: Mat3 = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
 
-    /// The low-pass's weight is fixed by its time constant, whatever the motion (a small
-    /// deviation and a 3 g one alike): from empty, one sample `u` moves its rate by
-    /// `ω₀²·dt·u` and its output by `ω₀²·dt²·u`, with `ω₀² = 2/τ²`: by hand 0.0064·u and
-    /// 1.28·10⁻⁴·u at 50 Hz and τ = 2.5 s.
+    /// The low-pass's weight is fixed by its time constant, not by the sample (a small
+    /// deviation and a 3 g one alike): from empty, with the motion statistic at hand-held
+    /// levels (τ = τ_max), one sample `u` moves its rate by `ω₀²·dt·u` and its output by
+    /// `ω₀²·dt²·u`, with `ω₀² = 2/τ²`: by hand 0.0064·u and 1.28·10⁻⁴·u at 50 Hz and τ = 2.5 s.
     #[test]
     fn the_low_pass_weight_is_fixed_by_its_time_constant() {
         let s = Settings::default();
         assert_eq!(s.ekf.accel_time_constant, 2.5);
         for north in [0.01f32, 3.0] {
             let mut f = quiet_filter(s);
+            f.motion.set_rate(0.02, 2.5, 2.376e-6, 1.8642e-6);
+            f.rate_dt = 0.02f32.to_bits();
+            f.motion.at_least(0.01);
             let a = Vec3::new(north, 0.0, -1.0);
             let flags = f.accel_update(0.02, a, a.norm(), &IDENTITY);
             assert!(flags.contains(Flags::ACCEL_USED), "{flags:?}");
+            assert_eq!(f.tau, 2.5);
             // North is δθ_y's component.
             let [rate, out] = f.lp.states().map(|y| y[1] / north);
             assert!((rate / 0.0064 - 1.0).abs() < 1e-4, "{north} g: rate {rate}, by hand 0.0064");
@@ -792,6 +934,64 @@ mod tests {
             } else {
                 assert!(moved.abs() > deg(0.1), "heading moved {moved} rad without yaw-split");
             }
+        }
+    }
+
+    /// A heading change turns the attitude error's covariance with the frame (P's attitude
+    /// rows are in NED): `set_yaw` by +90° takes NED x's tilt variance to y and y's to x, and
+    /// moves the tilt–bias cross-covariance of x to y (issue #35, defect 3). By hand, the turn
+    /// `T = [[0, −1], [1, 0]]` on rows and columns 0–1.
+    #[test]
+    fn a_heading_change_turns_the_tilt_covariance() {
+        let mut f = quiet_filter(Settings::default());
+        f.p = Cov6::diagonal([4e-4, 1e-4, 1e-4, 1e-6, 1e-6, 1e-6]);
+        f.p.m[0][3] = 2e-6;
+        f.p.m[3][0] = 2e-6;
+        f.set_yaw(deg(90.0));
+        let p = &f.p.m;
+        assert!((p[0][0] - 1e-4).abs() < 1e-9 && (p[1][1] - 4e-4).abs() < 1e-9, "{p:?}");
+        assert!((p[1][3] - 2e-6).abs() < 1e-11 && p[0][3].abs() < 1e-11, "{p:?}");
+        assert_eq!(p[1][3], p[3][1]);
+    }
+
+    /// A bias the rest detector measures moves the low-pass's states by `J·Δb` (issue #35,
+    /// defect 2): the samples in the low-pass saw the attitude error the old bias built up,
+    /// and the new bias no longer builds it. After a rest block's update the output is the
+    /// one before less `J·Δb`, to rounding; without the shift a stale `J·Δb` is read as tilt.
+    #[test]
+    fn a_rest_bias_update_moves_the_low_pass_by_its_delay() {
+        let mut s = Settings::default();
+        s.rest.bias_meas_floor = 0.0;
+        let mut f = quiet_filter(s);
+        f.p = Cov6::diagonal([1e-6, 1e-6, 1e-6, 1e-6, 1e-6, 1e-6]);
+        f.motion.set_rate(0.02, 2.5, 2.376e-6, 1.8642e-6);
+        f.rate_dt = 0.02f32.to_bits();
+        f.motion.at_least(0.01);
+        f.lp.set_rate(0.02, 2.5);
+        let r = Euler::new(deg(10.0), deg(-20.0), 0.0).to_quaternion().to_rotation_matrix();
+        let a: Mat3 = core::array::from_fn(|i| core::array::from_fn(|j| r[i][j] * 0.02));
+        for _ in 0..200 {
+            f.lp.propagate(&a);
+            f.lp.push([0.001, -0.002]);
+        }
+        let (before, h) = f.lp.measurement([0.0; 3]);
+        assert!(h.j[0][0].abs() > 0.1, "the delay model is empty: {:?}", h.j);
+        let bias = f.bias;
+        let block = RestBlock {
+            still: true,
+            at_rest: true,
+            mean_rate: Vec3::new(deg(0.05), deg(-0.03), deg(0.02)),
+            mean_var: Vec3::new(1e-8, 1e-8, 1e-8),
+            n: 100,
+        };
+        f.block_q = f.q;
+        f.rest_block(&block);
+        let db = f.bias - bias;
+        assert!(db.norm() > deg(0.01), "the rest block moved the bias by {db:?}");
+        let (after, _) = f.lp.measurement([0.0; 3]);
+        for k in 0..2 {
+            let want = before[k] - (h.j[k][0] * db.x + h.j[k][1] * db.y + h.j[k][2] * db.z);
+            assert!((after[k] - want).abs() < 1e-7, "{k}: {} vs {want}", after[k]);
         }
     }
 

@@ -278,6 +278,17 @@ impl Initializer {
         Some(noise.gyro_var * (rate_hz / noise.gyro_ref_rate_hz.max(1e-3) / n) + floor)
     }
 
+    /// The variance of the window's tilt (rad², per axis) when it was still: the
+    /// accelerometer's per-sample variance (g² ≈ rad² of direction) over the number of samples
+    /// averaged; `None` after a start in motion or with no accelerometer sample.
+    pub fn tilt_variance(&self, noise: &crate::settings::NoiseSettings) -> Option<f32> {
+        if self.moving || self.s.acc_n == 0 || !(self.s.elapsed > 0.0) {
+            return None;
+        }
+        let n = self.s.acc_n as f32;
+        Some(noise.accel_var_per_sample(self.s.elapsed / n) / n)
+    }
+
     /// Add one sample: `dt` s, the gyro (rad/s) when valid, the accelerometer (any unit, body
     /// FRD) when it passed the magnitude gate.
     pub fn push(&mut self, dt: f32, gyro: Option<Vec3>, accel: Option<Vec3>) -> InitStep {

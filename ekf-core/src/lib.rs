@@ -48,6 +48,7 @@ pub mod gyro_only;
 pub mod init;
 pub mod lever_arm;
 pub mod mathf;
+pub mod motion;
 pub mod quaternion;
 pub mod rest;
 pub mod sample;

@@ -283,16 +283,19 @@ pub struct EkfSettings {
     /// Gyro-bias standard deviation after initialisation, rad/s. Default 0.2 °/s. Also the rate
     /// agreement a still initialisation window tolerates (`init.rs`).
     pub initial_bias_sigma: f32,
-    /// Time constant (delay) of the accelerometer's low-pass in the estimate's NED frame, s: a
-    /// second-order Butterworth filter of natural frequency √2/τ (VQF's), fixed whatever the
-    /// motion. Motion accelerations average out in that almost-inertial frame (their mean is a
-    /// change of velocity over this time) while gravity stays (VQF's idea, Laidig and Seel
-    /// 2023). Default 2.5 s (VQF's `tauAcc` is 3 s; chosen on the BROAD development set and
-    /// RepoIMU 02a, `docs/filter.md`). 0: raw samples.
+    /// The longest time constant (delay) of the accelerometer's low-pass in the estimate's NED
+    /// frame, s: a second-order Butterworth filter of natural frequency √2/τ (VQF's). Motion
+    /// accelerations average out in that almost-inertial frame (their mean is a change of
+    /// velocity over this time) while gravity stays (VQF's idea, Laidig and Seel 2023). The
+    /// time constant in use follows the motion (`motion`, issue #35): 0 (raw samples) on a still
+    /// board or in gentle rotation, this much in hand-held motion, whatever balances the gyro's
+    /// walk over the delay against the measured horizontal acceleration in between. Default
+    /// 2.5 s (VQF's `tauAcc` is 3 s; chosen on the BROAD development set and RepoIMU 02a,
+    /// `docs/filter.md`). 0: always raw samples.
     pub accel_time_constant: f32,
     /// The gyro's rate error proportional to the rate (scale factor and axis misalignment),
     /// dimensionless: it adds `(k·|ω|)²·τ` rad²/s to the attitude's process noise, τ the
-    /// low-pass's time constant, so that what a fast turn builds up over the low-pass's delay
+    /// low-pass's longest time constant, so that what a fast turn builds up over the low-pass's delay
     /// is taken for attitude error, not for gyro bias. Default 0.02 (the iNEMO's gyros: 2 %
     /// sensitivity tolerance, 1 % cross-axis).
     pub gyro_scale_error: f32,

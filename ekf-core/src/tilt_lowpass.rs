@@ -1,5 +1,5 @@
 //! The EKF's tilt measurement: the specific force in the estimate's NED frame, low-passed with
-//! one fixed time constant, and what that low-passed vector measures.
+//! a time constant that the motion sets (`motion`), and what that low-passed vector measures.
 //!
 //! The estimate's NED frame is almost inertial: it turns only by the gyro's errors. There the
 //! motion's accelerations average out (their mean over τ is a change of velocity over τ)

@@ -152,22 +152,11 @@ fn a_start_in_motion_is_flagged_and_converges_within_10_s() {
     assert!(to_deg(db.max_abs()) < 0.3, "bias off by {:?} °/s", db.to_array().map(to_deg));
 }
 
-/// A start in motion and the heading of the gyro alone, given the same configured bias (issue
-/// #26, point 2): a pitch-only sine (10° at 0.1 Hz, scenario 1's motion) from power-on, with
-/// no still window. Nothing but the gyro knows the heading, so the EKF's differs from the
-/// gyro-only filter's only through the bias it learns. From the accelerometer it learns none
-/// about NED's vertical (yaw-split), and the rest only through the low-pass's delay model:
-/// the z bias stays within 0.05 °/s of the truth throughout (before issue #26's rebuild it
-/// swung to +0.43 °/s at 2 s and −0.78 °/s at 5 s, and left a 7° heading offset). What the
-/// pitch's ±10° let it see of body z is learned with the moving start's prior of 2 °/s, and
-/// its error, about 0.02 °/s, walks the heading 3.5° from gyro-only's in 200 s. The issue's
-/// goal is 0.3°: not met (with a 0.3 °/s prior, 0.8°); asserted at the measured value.
-#[test]
-fn a_start_in_motion_keeps_the_heading_near_the_gyro_alone() {
-    let w = core::f32::consts::TAU * 0.1;
-    let motion = move |t: f32| (Vec3::new(0.0, deg(10.0) * w * (w * t).cos(), 0.0), Vec3::ZERO);
+/// The heading gap between the EKF and the gyro-only filter with the same configured bias, the
+/// worst over a 200 s run from power-on, degrees, and the EKF's worst z bias error, °/s.
+fn moving_start_gap(motion: impl Fn(f32) -> (Vec3, Vec3) + Copy, seed: u64) -> (f32, f32) {
     let truth0 = Euler::new(0.0, 0.0, deg(30.0)).to_quaternion();
-    let run = simulate(truth0, 200.0, 50.0, Sensors::board(), 17, motion);
+    let run = simulate(truth0, 200.0, 50.0, Sensors::board(), seed, motion);
     let mut s = Settings::default();
     s.init.initial_yaw = deg(30.0);
     let mut ekf = Ekf::new(s);
@@ -183,9 +172,42 @@ fn a_start_in_motion_keeps_the_heading_near_the_gyro_alone() {
             worst_bz = worst_bz.max(bz.abs());
         }
     }
-    assert!(moving, "not flagged as a moving start");
-    assert!(to_deg(worst_bz) < 0.05, "z bias off by up to {} °/s", to_deg(worst_bz));
-    assert!(to_deg(worst) < 4.0, "heading {}° from the gyro-only filter's", to_deg(worst));
+    assert!(moving, "seed {seed}: not flagged as a moving start");
+    (to_deg(worst), to_deg(worst_bz))
+}
+
+/// A start in motion and the heading of the gyro alone, given the same configured bias (issue
+/// #35, point 2): from power-on, with no still window, a pitch-only sine (10° at 0.1 Hz,
+/// scenario 1's motion) and a coupled roll and pitch sine (8° at 0.13 Hz and 10° at 0.1 Hz),
+/// 5 seeds each. Nothing but the gyro knows the heading, so the EKF's differs from the
+/// gyro-only filter's only through the bias it learns. The accelerometer cannot see a bias
+/// about the vertical, and under a pitch swing the *current* vertical wobbles, so a gain
+/// removed along it still leaks x-bias corrections into z by sin θ·cos θ (issue #35, cause 2);
+/// here it is removed along the *mean* vertical (normalised, averaged over
+/// `ekf::MEAN_VERTICAL_S`), and the first second (before the motion statistic knows anything)
+/// takes the longest low-pass, not raw samples. Measured worst of the ten: 2.34° (issue #26's
+/// design on the same runs: 5.56°). The issue's goal, 0.3°, is not met:
+/// what is left is learned in the first 5 s, while the mean vertical is still a mean over part
+/// of one swing (the z bias error is constant afterwards); asserted at the measured value.
+#[test]
+fn a_start_in_motion_keeps_the_heading_near_the_gyro_alone() {
+    let w = core::f32::consts::TAU * 0.1;
+    let pitch = move |t: f32| (Vec3::new(0.0, deg(10.0) * w * (w * t).cos(), 0.0), Vec3::ZERO);
+    let wr = core::f32::consts::TAU * 0.13;
+    let coupled = move |t: f32| {
+        (Vec3::new(deg(8.0) * wr * (wr * t).cos(), deg(10.0) * w * (w * t).cos(), 0.0), Vec3::ZERO)
+    };
+    let mut worst = (0.0f32, 0.0f32);
+    for seed in 1..=5 {
+        for (name, (gap, bz)) in
+            [("pitch", moving_start_gap(pitch, seed)), ("coupled", moving_start_gap(coupled, seed))]
+        {
+            eprintln!("seed {seed} {name}: heading gap {gap:.3}°, z bias error {bz:.4} °/s");
+            worst = (worst.0.max(gap), worst.1.max(bz));
+        }
+    }
+    assert!(worst.1 < 0.015, "z bias off by up to {} °/s", worst.1);
+    assert!(worst.0 < 2.6, "heading up to {}° from the gyro-only filter's", worst.0);
 }
 
 /// The same start with the old behaviour's input — a window that takes the motion as bias —

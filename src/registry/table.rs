@@ -531,7 +531,7 @@ settings_table! {
         1.0,
         0.0,
         60.0,
-        "delay of the accelerometer low-pass in NED (2nd-order Butterworth, fixed); 0: raw samples",
+        "longest delay of the accelerometer low-pass in NED (2nd-order Butterworth; shorter when the motion allows); 0: raw samples",
         |s| s.filter.ekf.accel_time_constant
     ),
     // The ekf section's tens (60–69) are full: its later settings take the free ids below.

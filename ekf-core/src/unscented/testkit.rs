@@ -205,7 +205,8 @@ pub fn yaw_kept_through_tilt_corrections<F: AttitudeFilter>(f: &mut F) -> f32 {
 }
 
 /// After the initialisation window the bias covariance is the window's standard error plus
-/// the floor, exactly as the EKF's.
+/// the floor, as the EKF's (to 10⁻⁴: the EKF's window ends with its last sample's tilt update,
+/// which the window's own tilt variance makes move the bias covariance by a few 10⁻⁵).
 pub fn bias_covariance_from_the_window<F: AttitudeFilter>(
     f: &mut F,
     cov: impl Fn(&F) -> SMatrix<f32, 7, 7>,
@@ -221,7 +222,7 @@ pub fn bias_covariance_from_the_window<F: AttitudeFilter>(
     let pe = ekf.covariance();
     for i in 0..3 {
         let (v, ve) = (p[(4 + i, 4 + i)], pe.m[3 + i][3 + i]);
-        assert!((v / ve - 1.0).abs() < 1e-5, "axis {i}: {v} vs EKF {ve}");
+        assert!((v / ve - 1.0).abs() < 1e-4, "axis {i}: {v} vs EKF {ve}");
         // Far below the configured 0.2 °/s.
         assert!(v < 0.05 * deg(0.2) * deg(0.2), "axis {i}: {v}");
     }
