@@ -314,11 +314,14 @@ impl Ekf {
         let k = 0.75 * tau * tau / dt;
         self.accel_var = [white + k * psd[0], white + k * psd[1]];
         self.lp.push(an);
-        // Its variance: the low-pass's output is an average over τ, so consecutive outputs
+        // The variance above: the low-pass's output is an average over τ, so consecutive outputs
         // are not independent; one output per τ is, with the noise's variance σ²·dt/(2τ) (this
         // Butterworth's noise bandwidth is ω₀/(4ζ) = 1/(2τ)). Counted as τ/dt measurements per
-        // τ, each would carry σ²/2; the datasheet's σ² per sample is kept, on the safe side
-        // (the gyro's walk over the delay, above, is the larger term by far).
+        // τ, each would carry σ²/2; the datasheet's σ² per sample is kept, on the safe side.
+        // The gyro's walk over the delay (its samples saw the attitude error of their time,
+        // and the walk since is not in the model) adds psd·∫T(t)² dt = 3/4·τ·psd over the
+        // filter's weights (T the step response's tail, by hand), 3/4·τ²·psd/dt counted so,
+        // per NED axis (`walk_density`); the larger term by far at τ = 2.5 s, none raw.
         // With yaw-split the update corrects the bias about no axis the accelerometer cannot
         // see either: not about NED's vertical (R's third row: NED down in body axes), where
         // a bias error turns only the heading. What the low-pass shows along it is the

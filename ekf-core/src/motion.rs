@@ -13,11 +13,11 @@
 //! by hand) and subtracted; the rest, divided by the band's power gain at its centre `ω_b =
 //! 1/τ` of its middle low-pass, is the motion's power per axis in that band, `m_b` (g² ≈ rad²
 //! of tilt). The estimate's own drift over a band's time scale is the gyros' (walk, bias,
-//! scale) and no more, which is why the statistic neither depends on the attitude estimate
-//! nor takes the filter's corrections for motion. Acceleration the gyros predict at the
+//! scale) and the filter's corrections, small steps next to the motion that matters: the
+//! statistic does not depend on the attitude estimate itself. Acceleration the gyros predict at the
 //! configured lever arm is removed before (`conditioning`). Each band's power is averaged over
 //! [`ATTACK_PERIODS`] periods of its centre (at least [`ATTACK_S`]) and, once raised, falls
-//! back over [`RELEASE_TAUS`]·`τ_max`: motion that has just stopped tends to resume. For
+//! by a factor e per [`RELEASE_TAUS`]·`τ_max`: motion that has just stopped tends to resume. For
 //! [`ATTACK_S`] after the first sample nothing is known of the motion and `τ_max` is used.
 //!
 //! **The time constant** minimises the tilt error per axis,
@@ -113,9 +113,10 @@ impl MotionLevel {
         }
     }
 
-    /// The coefficients for samples `dt` s apart, the longest time constant `tau_max` s, and
-    /// the accelerometer's white-noise variance per sample `var` (g², per axis). Once per
-    /// sample rate (it has divisions and powers).
+    /// The coefficients for samples `dt` s apart, the longest time constant `tau_max` s, the
+    /// accelerometer's white-noise variance per sample `var` (g², per axis) and the gyros'
+    /// noise density about the horizontal axes `psd` (rad²/s). Once per sample rate (it has
+    /// divisions).
     #[cold]
     #[inline(never)]
     pub fn set_rate(&mut self, dt: f32, tau_max: f32, var: f32, psd: f32) {
