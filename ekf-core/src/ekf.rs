@@ -289,9 +289,16 @@ impl Ekf {
     /// `ekf.accel_time_constant`; `tilt_lowpass`); the
     /// Kalman update with yaw-split from that low-passed vector. `r` is the predicted rotation;
     /// `norm_g` the sample's norm, g (for the source's gate, off by default).
-    fn accel_update(&mut self, dt: f32, a_g: Vec3, norm_g: f32, r: &Mat3) -> Flags {
+    fn accel_update(
+        &mut self,
+        dt: f32,
+        a_g: Vec3,
+        norm_g: f32,
+        r: &Mat3,
+        dth: [f32; 2],
+    ) -> Flags {
         let an = horizontal(r, a_g);
-        self.observe_motion(dt, an);
+        self.observe_motion(dt, an, dth);
         // The source's gate (off by default): a sample whose norm is not 1 ±
         // `gate.norm_tolerance` g is not used at all, as the source skips its accelerometer
         // update. It keeps a sustained push out of the tilt, but it biases the mean of a
@@ -382,7 +389,7 @@ impl Ekf {
     /// One sample's horizontal specific force `an` (north, east; g, in the estimate's NED
     /// frame) into the motion statistic, `dt` s after the last: what depends on the sample
     /// rate is recomputed when `dt` moves by more than [`VAR_DT_ULPS`].
-    fn observe_motion(&mut self, dt: f32, an: [f32; 2]) {
+    fn observe_motion(&mut self, dt: f32, an: [f32; 2], dth: [f32; 2]) {
         let bits = dt.to_bits();
         if bits.abs_diff(self.rate_dt) > VAR_DT_ULPS {
             self.var_ps = self.settings.noise.accel_var_per_sample(dt);
@@ -391,11 +398,12 @@ impl Ekf {
                 self.settings.ekf.accel_time_constant,
                 self.var_ps,
                 self.noise.gyro_psd_xy,
+                self.settings.ekf.gyro_scale_error,
             );
             self.lp.set_rate(dt, self.tau);
             self.rate_dt = bits;
         }
-        self.motion.push([-an[1], an[0]]);
+        self.motion.push([-an[1], an[0]], dth);
     }
 
     /// Magnetometer heading update: only yaw (and the gyro biases) move.
@@ -554,7 +562,7 @@ impl AttitudeFilter for Ekf {
                         // provisional attitude's frame: the filter starts knowing how the
                         // vehicle moves.
                         let an = horizontal(&q.to_rotation_matrix(), a);
-                        self.observe_motion(c.dt_rate, an);
+                        self.observe_motion(c.dt_rate, an, [0.0; 2]);
                     }
                     self.last_flags = flags | Flags::INITIALISING;
                     return self.last_flags;
@@ -607,7 +615,13 @@ impl AttitudeFilter for Ekf {
         }
 
         if let Some((a, n)) = accel {
-            flags |= self.accel_update(c.dt_rate, a, n, &r);
+            // The estimate's rotation over the sample, in NED (the gyro's rate error builds
+            // up along it: the motion statistic allows for that).
+            let dth = rate.map_or([0.0; 2], |w| {
+                let v = w * c.dt_rate;
+                core::array::from_fn(|i| r[i][0] * v.x + r[i][1] * v.y + r[i][2] * v.z)
+            });
+            flags |= self.accel_update(c.dt_rate, a, n, &r, dth);
         }
         if self.settings.mag.enabled {
             if let Some(m) = sample.mag {
@@ -701,7 +715,7 @@ mod tests {
             }
             let r = f.q.to_rotation_matrix();
             let before = f.q;
-            let flags = f.accel_update(0.02, a, 1.0, &r);
+            let flags = f.accel_update(0.02, a, 1.0, &r, [0.0; 2]);
             prop_assert!(flags.contains(Flags::ACCEL_USED), "{:?}", flags);
             let moved = heading_change(before, f.q);
             prop_assert!(moved.abs() < 1e-6, "heading moved {} rad", moved);
@@ -763,10 +777,10 @@ mod tests {
         let level = Vec3::new(0.0, 0.0, -1.0);
         // One second for the motion statistic to learn that the board is still.
         for _ in 0..60 {
-            f.accel_update(0.02, level, 1.0, &IDENTITY);
+            f.accel_update(0.02, level, 1.0, &IDENTITY, [0.0; 2]);
         }
         let at = |f: &mut Ekf, dt: f32| {
-            f.accel_update(dt, level, 1.0, &IDENTITY);
+            f.accel_update(dt, level, 1.0, &IDENTITY, [0.0; 2]);
             assert_eq!(f.tau, 0.0, "a still board takes the samples raw");
             f.accel_var
         };
@@ -827,11 +841,11 @@ mod tests {
         assert_eq!(s.ekf.accel_time_constant, 2.5);
         for north in [0.01f32, 3.0] {
             let mut f = quiet_filter(s);
-            f.motion.set_rate(0.02, 2.5, 2.376e-6, 1.8642e-6);
+            f.motion.set_rate(0.02, 2.5, 2.376e-6, 1.8642e-6, 0.02);
             f.rate_dt = 0.02f32.to_bits();
             f.motion.at_least(0.01);
             let a = Vec3::new(north, 0.0, -1.0);
-            let flags = f.accel_update(0.02, a, a.norm(), &IDENTITY);
+            let flags = f.accel_update(0.02, a, a.norm(), &IDENTITY, [0.0; 2]);
             assert!(flags.contains(Flags::ACCEL_USED), "{flags:?}");
             assert_eq!(f.tau, 2.5);
             // North is δθ_y's component.
@@ -928,7 +942,7 @@ mod tests {
             let a = Vec3::new(0.0, 0.0175, -1.0);
             let before = f.q;
             for _ in 0..500 {
-                f.accel_update(0.02, a, a.norm(), &IDENTITY);
+                f.accel_update(0.02, a, a.norm(), &IDENTITY, [0.0; 2]);
             }
             let moved = heading_change(before, f.q.normalized());
             assert!(f.q.normalized().angle_to(before) > deg(0.1));
@@ -967,7 +981,7 @@ mod tests {
         s.rest.bias_meas_floor = 0.0;
         let mut f = quiet_filter(s);
         f.p = Cov6::diagonal([1e-6, 1e-6, 1e-6, 1e-6, 1e-6, 1e-6]);
-        f.motion.set_rate(0.02, 2.5, 2.376e-6, 1.8642e-6);
+        f.motion.set_rate(0.02, 2.5, 2.376e-6, 1.8642e-6, 0.02);
         f.rate_dt = 0.02f32.to_bits();
         f.motion.at_least(0.01);
         f.lp.set_rate(0.02, 2.5);

@@ -22,13 +22,28 @@
 //!
 //! **The time constant** minimises the tilt error per axis,
 //!
-//! `E(τ) = W·τ + Σ_b m_b / (1 + (ω_b·τ)⁴/4)`,
+//! `E(τ) = W·τ + S·τ² + Σ_b m_b / (1 + (ω_b·τ)⁴/4)`,
 //!
 //! the gyro's walk over the delay `τ` (`W = 3/4·ψ`, ψ the gyros' noise density about the
-//! horizontal axes: `tilt_lowpass`'s variance) against what the second-order Butterworth
+//! horizontal axes: `tilt_lowpass`'s variance) and the error its scale factor and axis
+//! misalignment build up over that delay (below) against what the second-order Butterworth
 //! low-pass lets through of each band (its power response `1/(1 + (ω/ω₀)⁴)`, `ω₀ = √2/τ`).
 //! Raw samples (τ = 0) pass every band through the Kalman filter's own first-order averaging
-//! over `t_K = √(σ²·dt/ψ)` (its correction time on raw samples): `E(0) = Σ m_b/(1 + (ω_b·t_K)²)`.
+//! over `t_K = √(σ²·dt/ψ)` (its correction time on raw samples):
+//! `E(0) = S·t_K² + Σ m_b/(1 + (ω_b·t_K)²)`.
+//!
+//! **The scale error's term.** A rate error proportional to the rate, bounded by `k`
+//! (`ekf.gyro_scale_error`: each scale factor uniform in ±k, each cross-axis term in ±k/2),
+//! turns the frame by `K·θ` while the vehicle turns by θ; about the two horizontal axes that
+//! is, per axis, `(k²/3 + k²/12)/2 = 5/24·k²` of squared error per squared angle turned. Over
+//! the low-pass's delay τ (its ramp lag) the vehicle turns about NED's horizontal axes by
+//! `θ_h(τ) ≈ τ·ω̄_h`, ω̄_h the rate averaged over the last `τ_max` (the first-order low-pass of
+//! the rotation angle less the angle: exact for a steady turn, the swing's amplitude for a
+//! fast oscillation), so `S = 5/24·k²·|ω̄_h|²`. A tumble (a steady turn of tens of °/s) takes
+//! short time constants; a hand's swing of a few tenths of a radian barely notices it. Without
+//! the term a tumble with the iNEMO's 2 % scale error locked itself at `τ_max`: the frame's
+//! error, growing with τ, is horizontal specific force in the estimate's frame and read as
+//! motion (realistic `tumble` 1.4°, now under 0.5°).
 //! `E` is evaluated at τ = 0 and at `τ_max·0.7^k`, k = 0…7 (down to 0.08·τ_max), and the
 //! smallest wins. With no motion the samples are used raw, as the source did; a hand-held
 //! motion of a few tenths of a g takes `τ_max`.
@@ -89,6 +104,13 @@ pub struct MotionLevel {
     omega: [f32; BANDS],
     /// The longest time constant, s.
     tau_max: f32,
+    /// The estimate's rotation about NED x and y over about the last `τ_max`, rad: the
+    /// rotation angle's first-order low-pass (time constant `τ_max`) less the angle itself.
+    rot: [f32; 2],
+    /// The Kalman filter's correction time on raw samples, s.
+    tk: f32,
+    /// `5/24·k²/τ_max²`, 1/s² (k the scale error's bound).
+    s_scale: f32,
 }
 
 impl MotionLevel {
@@ -110,19 +132,24 @@ impl MotionLevel {
             raw_pass: [0.0; BANDS],
             omega: [0.0; BANDS],
             tau_max: 0.0,
+            rot: [0.0; 2],
+            tk: 0.0,
+            s_scale: 0.0,
         }
     }
 
     /// The coefficients for samples `dt` s apart, the longest time constant `tau_max` s, the
-    /// accelerometer's white-noise variance per sample `var` (g², per axis) and the gyros'
-    /// noise density about the horizontal axes `psd` (rad²/s). Once per sample rate (it has
+    /// accelerometer's white-noise variance per sample `var` (g², per axis), the gyros'
+    /// noise density about the horizontal axes `psd` (rad²/s) and their scale error's bound
+    /// `scale_error` (`ekf.gyro_scale_error`). Once per sample rate (it has
     /// divisions).
     #[cold]
     #[inline(never)]
-    pub fn set_rate(&mut self, dt: f32, tau_max: f32, var: f32, psd: f32) {
+    pub fn set_rate(&mut self, dt: f32, tau_max: f32, var: f32, psd: f32, scale_error: f32) {
         // The Kalman filter's correction time on raw samples, √(σ²·dt/ψ), and what its
         // first-order averaging lets through of each band.
         let tk = if psd > 0.0 { crate::mathf::sqrt(var * dt / psd) } else { 0.0 };
+        self.tk = tk;
         let a = |t: f32| if t > dt { dt / t } else { 1.0 };
         // Time constants and coefficients of `[lp…, raw]`.
         let mut t = [0.0f32; LPS + 1];
@@ -203,6 +230,11 @@ impl MotionLevel {
         }
         self.tau_max = tau_max;
         self.omega = omega;
+        self.s_scale = if tau_max > 0.0 {
+            (5.0 / 24.0) * scale_error * scale_error / (tau_max * tau_max)
+        } else {
+            0.0
+        };
     }
 
     /// At least the motion power `m` (g², per axis) in every band (tests: a filter in motion).
@@ -216,9 +248,10 @@ impl MotionLevel {
     }
 
     /// One sample: the horizontal specific force in the estimate's NED frame, kept as the
-    /// tilt error it shows, `u = (−a_E, a_N)`, g.
+    /// tilt error it shows, `u = (−a_E, a_N)`, g, and the estimate's rotation over the sample
+    /// about NED x and y, `dth`, rad.
     #[inline(always)]
-    pub fn push(&mut self, u: [f32; 2]) {
+    pub fn push(&mut self, u: [f32; 2], dth: [f32; 2]) {
         if !self.started {
             self.lp = [u; LPS];
             self.started = true;
@@ -228,6 +261,9 @@ impl MotionLevel {
             unroll!(k in [0, 1] {
                 self.lp[i][k] += self.alpha[i] * (u[k] - self.lp[i][k]);
             });
+        });
+        unroll!(k in [0, 1] {
+            self.rot[k] = (1.0 - self.alpha[0]) * (self.rot[k] - dth[k]);
         });
         let ar = self.k[BANDS];
         unroll!(b in [0, 1, 2] {
@@ -256,13 +292,17 @@ impl MotionLevel {
         }
         // The band powers are never negative: each starts at 0 and takes the attack's value
         // only when that is larger.
-        let mut best = 0.0;
+        // The gyro's scale error over the delay: S·τ², S = 5/24·k²·|ω̄_h|² (module docs),
+        // ω̄_h = rot/τ_max.
+        let r2 = self.rot[0] * self.rot[0] + self.rot[1] * self.rot[1];
+        let s = r2 * self.s_scale;
+        let mut best = s * self.tk * self.tk;
         unroll!(b in [0, 1, 2] {
             best += self.m[b] * self.raw_pass[b];
         });
         let mut tau_best = 0.0;
         for k in 0..GRID {
-            let mut e = w * self.taus[k];
+            let mut e = w * self.taus[k] + s * self.taus[k] * self.taus[k];
             unroll!(b in [0, 1, 2] {
                 e += self.m[b] * self.pass[k][b];
             });
