@@ -43,6 +43,12 @@ const VAR_DT_ULPS: u32 = 1 << 15;
 /// their mean, not a phase of them (issue #35, cause 2).
 pub const MEAN_VERTICAL_S: f32 = 60.0;
 
+/// `|mean vertical|²` above which the verticals seen count as a swing about their mean (`1 −
+/// |m|²` is their mean squared sine from it: 0.1, about 18° rms), and the accelerometer's
+/// bias corrections along the mean are taken back while the mean is young (`accel_update`).
+/// A hand's motion, which tilts the board every way, reads 0.1–0.3 and keeps what it learns.
+const SWING_MEAN_SQ: f32 = 0.9;
+
 /// Cycles between full covariance health checks (the Cauchy–Schwarz bounds of every
 /// off-diagonal element: 15 products); once a second at 50 Hz.
 pub const FULL_HEALTH_CHECK_EVERY: u32 = 50;
@@ -98,6 +104,11 @@ pub struct Ekf {
     mean_t: f32,
     /// `1/|mean_down|`, at most 2.
     mean_k: f32,
+    /// The bias as the start, the rest detector and the magnetometer (the sources that see
+    /// every axis) left it, or as the accelerometer left it over a spread of attitudes: while
+    /// the mean vertical is young, the accelerometer's corrections since have no component
+    /// along it (`accel_update`).
+    bias_ref: Vec3,
 }
 
 impl Ekf {
@@ -138,6 +149,7 @@ impl Ekf {
             mean_down: [0.0; 3],
             mean_t: 0.0,
             mean_k: 1.0,
+            bias_ref: settings.init.gyro_bias,
         }
     }
 
@@ -189,6 +201,7 @@ impl Ekf {
     fn start(&mut self, q: Quaternion, bias: Vec3) {
         self.q = q.normalized();
         self.bias = if bias.is_finite() { bias } else { self.settings.init.gyro_bias };
+        self.bias_ref = self.bias;
         self.p = Self::initial_cov(&self.settings);
         self.init = None;
         self.gate.reset();
@@ -289,14 +302,7 @@ impl Ekf {
     /// `ekf.accel_time_constant`; `tilt_lowpass`); the
     /// Kalman update with yaw-split from that low-passed vector. `r` is the predicted rotation;
     /// `norm_g` the sample's norm, g (for the source's gate, off by default).
-    fn accel_update(
-        &mut self,
-        dt: f32,
-        a_g: Vec3,
-        norm_g: f32,
-        r: &Mat3,
-        dth: [f32; 2],
-    ) -> Flags {
+    fn accel_update(&mut self, dt: f32, a_g: Vec3, norm_g: f32, r: &Mat3, dth: [f32; 2]) -> Flags {
         let an = horizontal(r, a_g);
         self.observe_motion(dt, an, dth);
         // The source's gate (off by default): a sample whose norm is not 1 ±
@@ -370,7 +376,26 @@ impl Ekf {
         } else {
             self.q.pre_rotate_small(Vec3::new(dx[0], dx[1], dx[2]))
         };
-        let db = Vec3::new(dx[3], dx[4], dx[5]);
+        let mut db = Vec3::new(dx[3], dx[4], dx[5]);
+        let m = self.mean_down;
+        if self.mean_t < MEAN_VERTICAL_S
+            && fcmp::gt(m[0] * m[0] + m[1] * m[1] + m[2] * m[2], SWING_MEAN_SQ)
+        {
+            // While the mean vertical is still a plain mean since the start and the verticals
+            // seen stay near it (a swing, not a tumble), what the accelerometer has taught the
+            // bias since the start, or since the last source that sees every axis, has no
+            // component along the mean vertical as it is known now: the gain restriction above
+            // used the mean as it was then, and in the first seconds of a start in motion that
+            // is a mean over part of one swing, off the true one by a few degrees, through
+            // which the large corrections of a bias known only to `init.moving_bias_sigma`
+            // leaked into it (issue #35, the start in motion).
+            let d = self.bias + db - self.bias_ref;
+            let dv = d.x * vertical[0] + d.y * vertical[1] + d.z * vertical[2];
+            db -= Vec3::new(vertical[0], vertical[1], vertical[2]) * dv;
+        } else {
+            // What it learnt over a spread of attitudes is the accelerometer's to keep.
+            self.bias_ref = self.bias + db;
+        }
         self.bias += db;
         self.lp.correct([dx[0], dx[1]], db);
         Flags::ACCEL_USED
@@ -430,6 +455,7 @@ impl Ekf {
                 self.external_yaw += dx[2];
                 let db = Vec3::new(dx[3], dx[4], dx[5]);
                 self.bias += db;
+                self.bias_ref += db;
                 self.lp.correct([0.0, 0.0], db);
                 Flags::MAG_USED
             }
@@ -475,6 +501,7 @@ impl Ekf {
             // The low-pass's samples saw the attitude error the old bias built up: a new bias
             // moves them by J·Δb (issue #35, defect 2).
             self.lp.correct([0.0, 0.0], moved_bias);
+            self.bias_ref += moved_bias;
         }
         self.block_q = self.q;
         flags

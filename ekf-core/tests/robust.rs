@@ -184,11 +184,11 @@ fn moving_start_gap(motion: impl Fn(f32) -> (Vec3, Vec3) + Copy, seed: u64) -> (
 /// about the vertical, and under a pitch swing the *current* vertical wobbles, so a gain
 /// removed along it still leaks x-bias corrections into z by sin θ·cos θ (issue #35, cause 2);
 /// here it is removed along the *mean* vertical (normalised, averaged over
-/// `ekf::MEAN_VERTICAL_S`), and the first second (before the motion statistic knows anything)
-/// takes the longest low-pass, not raw samples. Measured worst of the ten: 2.34° (issue #26's
-/// design on the same runs: 5.56°). The issue's goal, 0.3°, is not met:
-/// what is left is learned in the first 5 s, while the mean vertical is still a mean over part
-/// of one swing (the z bias error is constant afterwards); asserted at the measured value.
+/// `ekf::MEAN_VERTICAL_S`). In the first seconds that mean is one over part of a swing, a few
+/// degrees off, and the large corrections of a bias known to 2 °/s leaked into z through it
+/// (2.34° at worst, issue #26's design 5.56°); what the accelerometer taught along the mean
+/// vertical as it is known now is taken back while the mean is young. Measured worst of the
+/// ten: 0.10° (the z bias off by 0.011 °/s at most, early, and then taken back).
 #[test]
 fn a_start_in_motion_keeps_the_heading_near_the_gyro_alone() {
     let w = core::f32::consts::TAU * 0.1;
@@ -207,7 +207,7 @@ fn a_start_in_motion_keeps_the_heading_near_the_gyro_alone() {
         }
     }
     assert!(worst.1 < 0.015, "z bias off by up to {} °/s", worst.1);
-    assert!(worst.0 < 2.6, "heading up to {}° from the gyro-only filter's", worst.0);
+    assert!(worst.0 < 0.3, "heading up to {}° from the gyro-only filter's", worst.0);
 }
 
 /// The same start with the old behaviour's input — a window that takes the motion as bias —
@@ -317,3 +317,35 @@ fn a_tumble_with_the_gyros_scale_error_keeps_the_tilt() {
          {unmodelled}° without (mean τ {tau_u} s)"
     );
 }
+
+/// A start in motion that turns the board every way (roll, pitch and yaw sines of 40–60 °/s,
+/// 60 s from power-on), with the configured bias 2 °/s wrong on x and y (the board was
+/// recalibrated since): the accelerometer must teach the bias, about the mean vertical too,
+/// since the vertical spreads over every attitude. The correction that takes back what it
+/// teaches along the mean vertical while the mean is young (`ekf::accel_update`) is for a
+/// swing about one mean; here the mean is short (|m|² well below 0.9) and the bias is learnt.
+#[test]
+fn a_start_in_motion_over_every_attitude_learns_the_bias() {
+    let w = |f: f32, t: f32| (core::f32::consts::TAU * f * t).cos();
+    let motion = move |t: f32| {
+        let rate =
+            Vec3::new(deg(60.0) * w(0.21, t), deg(50.0) * w(0.17, t + 1.0), deg(40.0) * w(0.13, t));
+        (rate, Vec3::ZERO)
+    };
+    let run = simulate(Quaternion::IDENTITY, 60.0, 50.0, Sensors::board(), 31, motion);
+    let mut s = Settings::default();
+    s.init.gyro_bias = Sensors::board().gyro_bias + Vec3::new(deg(2.0), deg(-2.0), 0.0);
+    let mut f = Ekf::new(s);
+    let mut worst = 0.0f32;
+    for (k, smp) in run.samples.iter().enumerate() {
+        f.update(smp);
+        if k >= 1500 {
+            let db = f.gyro_bias() - Sensors::board().gyro_bias;
+            worst = worst.max(to_deg(db.norm()));
+        }
+    }
+    // Measured: 0.14 °/s at worst after 30 s; 1.9 °/s when the correction applies at every
+    // spread of the vertical (it then takes back what the rotations taught).
+    assert!(worst < 0.3, "bias off by up to {worst} °/s after 30 s");
+}
+
