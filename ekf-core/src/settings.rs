@@ -294,10 +294,13 @@ pub struct EkfSettings {
     /// `docs/filter.md`). 0: always raw samples.
     pub accel_time_constant: f32,
     /// The gyro's rate error proportional to the rate (scale factor and axis misalignment),
-    /// dimensionless: it adds `(k·|ω|)²·τ` rad²/s to the attitude's process noise, τ the
-    /// low-pass's longest time constant, so that what a fast turn builds up over the low-pass's delay
-    /// is taken for attitude error, not for gyro bias. Default 0.02 (the iNEMO's gyros: 2 %
-    /// sensitivity tolerance, 1 % cross-axis).
+    /// dimensionless: the bound k of each scale factor's error (each cross-axis term's: k/2).
+    /// It adds `(k·|ω|)²·τ` rad²/s to the attitude's process noise, τ the low-pass's longest
+    /// time constant, so that what a fast turn builds up over the low-pass's delay is taken for
+    /// attitude error, not for gyro bias; and the time-constant rule counts the error it builds
+    /// up over the delay, `5/24·k²·(ω̄_h·τ)²` (`motion`), so that a sustained turn takes a short
+    /// time constant. Default 0.02 (the iNEMO's gyros: 2 % sensitivity tolerance, 1 %
+    /// cross-axis).
     pub gyro_scale_error: f32,
 }
 

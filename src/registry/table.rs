@@ -545,7 +545,7 @@ settings_table! {
         1.0,
         0.0,
         0.5,
-        "gyro rate error proportional to the rate (scale factor, misalignment): attitude process noise (k·|ω|)²·τ",
+        "gyro rate error proportional to the rate (scale factor, misalignment): attitude process noise (k·|ω|)²·τ; shorter low-pass in a turn",
         |s| s.filter.ekf.gyro_scale_error
     ),
     // Sensor conditioning.
