@@ -348,4 +348,3 @@ fn a_start_in_motion_over_every_attitude_learns_the_bias() {
     // spread of the vertical (it then takes back what the rotations taught).
     assert!(worst < 0.3, "bias off by up to {worst} °/s after 30 s");
 }
-
