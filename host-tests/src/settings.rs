@@ -87,11 +87,16 @@ pub fn parse_assignment(text: &str) -> Result<Assignment, String> {
         return Err(format!("{text:?}: expected NAME=VALUE (e.g. gate.jump=0.1)"));
     };
     let (name, value) = (name.trim(), value.trim());
-    let setting = registry::find(name).ok_or_else(|| {
-        format!(
+    let setting = registry::find(name).ok_or_else(|| match registry::retired(name) {
+        Some(r) => format!(
+            "{r}: {}: {}; a log or settings file that names it replays without it",
+            Reason::UnknownSetting.as_str(),
+            registry::RETIRED_WHY
+        ),
+        None => format!(
             "{name}: {}: no such setting (the names are listed in docs/commands.md)",
             Reason::UnknownSetting.as_str()
-        )
+        ),
     })?;
     let fields: Vec<&str> = value.split(',').map(str::trim).collect();
     let value = setting
@@ -108,26 +113,55 @@ pub fn format_assignment(s: &Setting, v: &Value) -> String {
     format!("{}={}", s.name, out.body())
 }
 
-/// The lines of a settings file: `(line number, assignment)`, comments and blank lines
-/// skipped. Errors name the line: `settings.txt line 3: gate.jump=abc: type: ...`.
-pub fn parse_settings_text(text: &str, origin: &str) -> Result<Vec<(usize, Assignment)>, String> {
+/// The lines of a settings file.
+#[derive(Debug)]
+pub struct SettingsText {
+    /// `(line number, assignment)`, in order.
+    pub lines: Vec<(usize, Assignment)>,
+    /// The lines that name a retired setting (`registry::RETIRED`), skipped as the firmware
+    /// skips them in a saved record: one warning each (`retired_warning`).
+    pub retired: Vec<(usize, &'static str)>,
+}
+
+/// The stderr warning for a retired setting skipped at `origin`'s `line`.
+pub fn retired_warning(origin: &str, line: usize, name: &str) -> String {
+    format!("{origin} line {line}: {name} skipped: {}", registry::RETIRED_WHY)
+}
+
+/// The name of `NAME=VALUE`, when it is a retired setting's.
+fn retired_name(text: &str) -> Option<&'static str> {
+    text.split_once('=').and_then(|(name, _)| registry::retired(name.trim()))
+}
+
+/// The lines of a settings file: comments and blank lines skipped, a retired setting's line
+/// skipped and listed. Errors name the line: `settings.txt line 3: gate.jump=abc: type: ...`.
+pub fn parse_settings_text(text: &str, origin: &str) -> Result<SettingsText, String> {
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-    let mut out = Vec::new();
+    let mut out = SettingsText { lines: Vec::new(), retired: Vec::new() };
     for (i, line) in text.lines().enumerate() {
         let t = line.trim();
         if t.is_empty() || t.starts_with('#') {
             continue;
         }
+        if let Some(name) = retired_name(t) {
+            out.retired.push((i + 1, name));
+            continue;
+        }
         let a = parse_assignment(t).map_err(|e| format!("{origin} line {}: {e}", i + 1))?;
-        out.push((i + 1, a));
+        out.lines.push((i + 1, a));
     }
     Ok(out)
 }
 
-/// [`parse_settings_text`] of a file.
+/// [`parse_settings_text`] of a file; each retired setting's line is reported on stderr.
 pub fn read_settings_file(path: &Path) -> Result<Vec<(usize, Assignment)>, String> {
     let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
-    parse_settings_text(&text, &path.display().to_string())
+    let origin = path.display().to_string();
+    let parsed = parse_settings_text(&text, &origin)?;
+    for (line, name) in &parsed.retired {
+        eprintln!("{}", retired_warning(&origin, *line, name));
+    }
+    Ok(parsed.lines)
 }
 
 /// A whole settings file for `s`: a comment line per `header` entry, then every setting of the
@@ -269,6 +303,8 @@ pub struct ReplaySettings {
     pub from_trace: usize,
     /// The trace says its samples already had the lever arm.
     pub lever_applied: bool,
+    /// Retired settings the trace's header named, skipped (`registry::RETIRED`).
+    pub retired: Vec<&'static str>,
 }
 
 impl ReplaySettings {
@@ -280,6 +316,7 @@ impl ReplaySettings {
             lever_already: Vec::new(),
             from_trace: 0,
             lever_applied: false,
+            retired: Vec::new(),
         }
     }
 
@@ -287,6 +324,14 @@ impl ReplaySettings {
     /// it says was applied.
     pub fn apply_trace(&mut self, meta: &TraceMeta, origin: &str) -> Result<(), String> {
         for (line, text) in &meta.settings {
+            if let Some(name) = retired_name(text) {
+                // A log of older firmware: the setting no longer exists; the firmware skips
+                // it in a saved record the same way.
+                if !self.retired.contains(&name) {
+                    self.retired.push(name);
+                }
+                continue;
+            }
             let a = parse_assignment(text).map_err(|e| format!("{origin} line {line}: {e}"))?;
             a.setting.set(&mut self.device, a.value);
             self.from_trace += 1;
@@ -329,6 +374,13 @@ impl ReplaySettings {
     /// The stderr notes: what was not applied and why (one line per reason).
     pub fn notes(&self) -> Vec<String> {
         let mut out = Vec::new();
+        if !self.retired.is_empty() {
+            out.push(format!(
+                "trace header: {} skipped: {}",
+                self.retired.join(", "),
+                registry::RETIRED_WHY
+            ));
+        }
         if !self.lever_already.is_empty() {
             out.push(format!(
                 "not applied: {} (the trace says its samples already had the lever arm)",
@@ -417,7 +469,7 @@ mod tests {
         let text = settings_file_text(&s, &["from a test".into()]);
         assert!(text.starts_with("# from a test\nnoise.gyro_var=0.337,0.275,0.00419\n"), "{text}");
         let mut back = PipelineSettings::default();
-        for (_, a) in parse_settings_text(&text, "f").unwrap() {
+        for (_, a) in parse_settings_text(&text, "f").unwrap().lines {
             assert!(a.setting.set(&mut back, a.value));
         }
         // The same file again (values travel as the device prints them: 7 digits).
@@ -425,6 +477,52 @@ mod tests {
         assert_eq!(back.filter.gate.jump_g, 0.25);
         let e = parse_settings_text("# c\n\ngate.jump=0.1\ngate.jump=x\n", "s.txt").unwrap_err();
         assert_eq!(e, "s.txt line 4: gate.jump=x: type: expected f32: one number");
+    }
+
+    /// Issue #39, point 8: the four settings session 13 retired (`registry::RETIRED`), named in
+    /// an old log's header or a settings file, are skipped with a warning that names them, as
+    /// the firmware skips their ids in a saved record; `--set` with one says it was retired.
+    #[test]
+    fn retired_settings_are_skipped_with_a_warning_and_refused_by_name() {
+        // `--set` (and any single assignment): refused, and the reason says retired.
+        let e = parse_assignment("ekf.motion_scale=0.001").unwrap_err();
+        assert!(e.starts_with("ekf.motion_scale: unknown-setting: retired"), "{e}");
+        let e = parse_assignment("EKF.VIB_RATE=15").unwrap_err();
+        assert!(e.starts_with("ekf.vib_rate: unknown-setting: retired"), "{e}");
+        // A name that never existed is still just unknown.
+        let e = parse_assignment("ekf.motion_scales=1").unwrap_err();
+        assert!(e.contains("no such setting"), "{e}");
+        // A settings file: the retired lines skipped and listed, the rest applied.
+        let text = "gate.jump=0.2\nekf.vib_time_constant=1.5\n# c\nekf.motion_time_constant=1\n";
+        let parsed = parse_settings_text(text, "old.txt").unwrap();
+        assert_eq!(parsed.lines.len(), 1);
+        assert_eq!(parsed.lines[0].1.setting.name, "gate.jump");
+        assert_eq!(
+            parsed.retired,
+            vec![(2, "ekf.vib_time_constant"), (4, "ekf.motion_time_constant")]
+        );
+        let w = retired_warning("old.txt", 2, "ekf.vib_time_constant");
+        assert!(w.starts_with("old.txt line 2: ekf.vib_time_constant skipped: retired"), "{w}");
+        // An old log's header: the retired settings skipped and named in the notes, the others
+        // applied.
+        let meta = TraceMeta {
+            settings: vec![
+                (2, "gate.jump=0.3".into()),
+                (3, "ekf.motion_scale=0.001".into()),
+                (4, "ekf.vib_rate=15".into()),
+            ],
+            ..TraceMeta::default()
+        };
+        let base = ReplayConfig::default();
+        let mut rs = ReplaySettings::new(device_form(&base));
+        rs.apply_trace(&meta, "old.csv").unwrap();
+        assert_eq!(rs.from_trace, 1);
+        assert_eq!(rs.config(&base).settings.gate.jump_g, 0.3);
+        let notes = rs.notes().join("\n");
+        assert!(
+            notes.contains("trace header: ekf.motion_scale, ekf.vib_rate skipped: retired"),
+            "{notes}"
+        );
     }
 
     #[test]

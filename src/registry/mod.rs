@@ -588,6 +588,27 @@ pub fn find(name: &str) -> Option<&'static Setting> {
     SETTINGS.iter().find(|s| s.name.eq_ignore_ascii_case(name))
 }
 
+/// Settings that older firmware had and this one has retired: flash id and name. The ids are
+/// never reused; a saved record that holds one loads without it (`persist`), and the host
+/// tools skip one named in a log's header or a settings file, with a warning (issue #39).
+/// Issue #26's fixed low-pass (session 13) replaced the motion level and vibration share
+/// these four set.
+pub const RETIRED: [(u16, &str); 4] = [
+    (58, "ekf.vib_time_constant"),
+    (59, "ekf.vib_rate"),
+    (68, "ekf.motion_scale"),
+    (69, "ekf.motion_time_constant"),
+];
+
+/// Why a retired setting is gone, for the host tools' messages.
+pub const RETIRED_WHY: &str =
+    "retired with the estimator's redesign (issue #26: the fixed low-pass replaced the motion level and vibration share)";
+
+/// The retired setting called `name` (matched case-insensitively), its registry spelling.
+pub fn retired(name: &str) -> Option<&'static str> {
+    RETIRED.iter().find(|r| r.1.eq_ignore_ascii_case(name)).map(|r| r.1)
+}
+
 /// The setting with flash id `id`.
 pub fn by_id(id: u16) -> Option<&'static Setting> {
     SETTINGS.iter().find(|s| s.id == id)
