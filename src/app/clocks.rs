@@ -5,10 +5,13 @@
 //! first with a bounded wait, then its frequency is measured against the HSI through the LSI
 //! ([`measure_hse`]; the decision is the library's
 //! [`clock_check`](inemo_ahrs::supervision::clock_check), host-tested); only if it runs at
-//! 8 MHz is the HSE configuration frozen, otherwise the PLL runs from HSI/2.
+//! 8 MHz is the HSE configuration frozen, otherwise the PLL runs from HSI/2. Before all that
+//! the clock tree is put back to its reset state, whatever ran before (issue #37:
+//! [`clock_reset`](inemo_ahrs::supervision::clock_reset)).
 
 use inemo_ahrs::board;
 use inemo_ahrs::supervision::clock_check::{self, HseCheck};
+use inemo_ahrs::supervision::clock_reset::{self, RccRegs, ResetError};
 pub use inemo_ahrs::supervision::reset_cause::ResetCause;
 use stm32f1xx_hal::{
     flash::{self, FlashExt},
@@ -148,10 +151,46 @@ fn measure_hse(rcc: &pac::RCC, started: bool) -> HseCheck {
     clock_check::judge(true, on_hsi, on_hse)
 }
 
+/// The RCC's registers for [`clock_reset`] (raw values: the sequence works on bit masks).
+struct Regs<'a>(&'a pac::RCC);
+
+impl RccRegs for Regs<'_> {
+    fn cr(&self) -> u32 {
+        self.0.cr().read().bits()
+    }
+    fn set_cr(&mut self, v: u32) {
+        // SAFETY: RCC_CR's bits are all defined (RM0008 §8.3.1); the ready bits are read-only.
+        self.0.cr().write(|w| unsafe { w.bits(v) });
+    }
+    fn cfgr(&self) -> u32 {
+        self.0.cfgr().read().bits()
+    }
+    fn set_cfgr(&mut self, v: u32) {
+        // SAFETY: as above (§8.3.2); SWS is read-only.
+        self.0.cfgr().write(|w| unsafe { w.bits(v) });
+    }
+    fn set_cir(&mut self, v: u32) {
+        // SAFETY: as above (§8.3.3): the clear bits and the interrupt enables.
+        self.0.cir().write(|w| unsafe { w.bits(v) });
+    }
+}
+
 /// Configures the clock tree: 72 MHz from the crystal, or 64 MHz from HSI if it does not
 /// start or is not 8 MHz. Flash wait states are set by the HAL. Returns the flash controller
 /// too (for the settings pages) and what the crystal check found.
+///
+/// Whatever ran before (ST's DFU bootloader leaves SYSCLK on the PLL at 72 MHz), the clock
+/// tree is first put back to its reset state ([`clock_reset`], host-tested): the crystal
+/// check needs SYSCLK on the HSI, and the PLL cannot be configured while it runs.
 pub fn freeze(rcc: pac::RCC, flash: pac::FLASH) -> (Rcc, ClockSource, flash::Parts, HseCheck) {
+    match clock_reset::reset_clock_tree(&mut Regs(&rcc)) {
+        Ok(()) => {}
+        Err(ResetError::HsiNotReady) => defmt::warn!("clock reset: HSI not ready"),
+        Err(ResetError::NotOnHsi { sws }) => {
+            defmt::warn!("clock reset: SYSCLK stayed on source {}", sws)
+        }
+        Err(ResetError::PllRunning) => defmt::warn!("clock reset: the PLL did not stop"),
+    }
     let started = start_hse(&rcc);
     let hse = measure_hse(&rcc, started);
     if started && !hse.use_hse() {

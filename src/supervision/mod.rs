@@ -3,6 +3,8 @@
 //! - [`reset_cause`]: why the MCU last reset, from the RCC_CSR flags (reported at boot);
 //! - [`led`]: which LED pattern (init, running, fault) for what the filter reported;
 //! - [`watchdog`]: whether a filter cycle was healthy enough to feed the independent watchdog;
+//! - [`clock_reset`]: the clock tree back to its reset state from whatever a bootloader left
+//!   (SYSCLK on the PLL at 72 MHz, after ST's DFU bootloader), every wait bounded;
 //! - [`clock_check`]: whether the crystal is the 8 MHz one (measured against the HSI through
 //!   the LSI at boot), else the HSI;
 //! - [`fault_record`]: the HardFault/panic record kept in RAM across a reset (magic, CRC);
@@ -18,6 +20,7 @@
 //!   failures and stuck-data detection.
 
 pub mod clock_check;
+pub mod clock_reset;
 pub mod depth_probe;
 pub mod fault_record;
 pub mod flash_stall;
