@@ -116,7 +116,7 @@ fn shown(r: io::Result<()>) -> io::Result<bool> {
 /// Run `live` on `port` until `end`, Ctrl-C ([`crate::INTERRUPTED`]) or a closed stdout.
 pub fn live(port: &str, end: Option<Instant>) -> Result<(), String> {
     let mut link = Link::open(port)?;
-    crate::catch_ctrl_c();
+    crate::catch_signals();
     let stdout = io::stdout();
     let tty = stdout.is_terminal();
     let mut out = stdout.lock();

@@ -22,7 +22,10 @@ use std::{
     io::{self, BufRead, BufWriter, IsTerminal, Write},
     path::{Path, PathBuf},
     process::ExitCode,
-    sync::atomic::{AtomicBool, Ordering},
+    sync::{
+        atomic::{AtomicBool, Ordering},
+        Arc, LazyLock, Once,
+    },
     time::{Duration, Instant},
 };
 
@@ -181,14 +184,45 @@ enum SettingsAction {
     },
 }
 
-static INTERRUPTED: AtomicBool = AtomicBool::new(false);
+/// Set by SIGINT (Ctrl-C), SIGTERM or SIGHUP once [`catch_signals`] has run: the commands that
+/// run until interrupted stop at their next check, and put the device back as they found it.
+static INTERRUPTED: LazyLock<Arc<AtomicBool>> = LazyLock::new(|| Arc::new(AtomicBool::new(false)));
 
-/// Ctrl-C sets [`INTERRUPTED`] instead of killing the process (the `ctrlc` crate: SIGINT and
-/// SIGTERM, handled on its own thread). Called by every command that runs until interrupted;
-/// the second call of a process keeps the first handler, which does the same.
-fn catch_ctrl_c() {
-    // Err(MultipleHandlers) on a second call: the handler in place already sets the flag.
-    let _ = ctrlc::try_set_handler(|| INTERRUPTED.store(true, Ordering::SeqCst));
+/// SIGINT, SIGTERM and SIGHUP set [`INTERRUPTED`] instead of killing the process (the
+/// `signal-hook` crate). A signal that was ignored when the tool started stays ignored: under
+/// `nohup` SIGHUP, as a background job of a non-interactive shell SIGINT — whoever started the
+/// tool asked for that. SIGTERM is always caught (issue #39: a `log` stopped by it used to
+/// leave a 0-byte file and the device in raw mode). Called by every command that runs until
+/// interrupted, before it touches the device; the handlers are installed once per process.
+fn catch_signals() {
+    static ONCE: Once = Once::new();
+    ONCE.call_once(|| {
+        let ignored = ignored_signals();
+        for sig in
+            [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM, signal_hook::consts::SIGHUP]
+        {
+            let was_ignored = u32::try_from(sig - 1).is_ok_and(|b| b < 64 && ignored >> b & 1 == 1);
+            if was_ignored && sig != signal_hook::consts::SIGTERM {
+                continue;
+            }
+            if let Err(e) = signal_hook::flag::register(sig, Arc::clone(&INTERRUPTED)) {
+                eprintln!("ahrs-tool: signal {sig} not caught: {e}");
+            }
+        }
+    });
+}
+
+/// The signals this process ignores, as the kernel reports them (`SigIgn` of
+/// `/proc/self/status`, Linux: bit n − 1 for signal n); none where that is not available.
+fn ignored_signals() -> u64 {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find_map(|l| l.strip_prefix("SigIgn:"))
+                .and_then(|v| u64::from_str_radix(v.trim(), 16).ok())
+        })
+        .unwrap_or(0)
 }
 
 fn main() -> ExitCode {
@@ -203,7 +237,7 @@ fn main() -> ExitCode {
         }
         Cmd::Calibrate { port, seconds } => calibrate(&port, seconds),
         Cmd::Bridge { port, udp, tcp, seconds } => {
-            catch_ctrl_c();
+            catch_signals();
             let stop = || INTERRUPTED.load(Ordering::SeqCst);
             bridge::run(&port, udp.as_deref(), tcp.as_deref(), seconds, &stop)
         }
@@ -360,10 +394,16 @@ fn log(
             }
         }
     }
+    // Before the device is touched: a signal during the settings walk (seconds) ends the
+    // command before the log starts, with nothing written and the device as it was.
+    catch_signals();
     let mut link = Link::open(port)?;
     // What the samples already had applied and the device's settings (`host-tests replay`
     // applies them, and no conditioning twice); read before the file is created.
     let header = settings_cmd::log_comments(&mut link)?;
+    if INTERRUPTED.load(Ordering::SeqCst) {
+        return Err("interrupted before the log started: nothing written".into());
+    }
     let existed = out.exists();
     // Not truncated yet: a refusal below leaves an existing file as it was.
     let file = File::options()
@@ -404,7 +444,7 @@ fn log(
     if restart {
         writer.comment(META_RESTARTED).map_err(io_err)?;
     }
-    catch_ctrl_c();
+    writer.flush().map_err(io_err)?;
     // `RAW,2` restarts the estimator and the time; the rows after its reply are the new
     // estimator's, from its first sample (`t` one period).
     expect_ok(&mut link, if restart { "RAW,2" } else { "RAW,1" })?;
@@ -413,11 +453,14 @@ fn log(
     let mut gaps = GapCount::default();
     let mut rows = 0u64;
     let mut result = Ok(());
+    // Each row reaches the file as it comes (a kill loses at most the row being written).
     let mut write = |logged: raw::Logged| -> Result<(), String> {
         writer.row(&logged.row).map_err(io_err)?;
+        writer.flush().map_err(io_err)?;
         gaps.push(logged.row.t);
         if let (Some(w), Some(d)) = (estimates.as_mut(), &logged.device) {
             writeln!(w, "{:.4},{},{},{}", logged.row.t, d.roll, d.pitch, d.yaw).map_err(io_err)?;
+            w.flush().map_err(io_err)?;
         }
         rows += 1;
         Ok(())
@@ -427,7 +470,10 @@ fn log(
         match link.next_sentence(deadline) {
             Ok(Some((body, _))) => {
                 if let Some(logged) = joiner.push(&body) {
-                    write(logged)?;
+                    if let Err(e) = write(logged) {
+                        result = Err(e);
+                        break;
+                    }
                 }
             }
             Ok(None) => {}
@@ -437,14 +483,17 @@ fn log(
             }
         }
     }
-    if let Some(logged) = joiner.finish() {
-        write(logged)?;
+    if result.is_ok() {
+        if let Some(logged) = joiner.finish() {
+            result = write(logged);
+        }
     }
-    writer.finish().map_err(io_err)?;
-    if let Some(mut w) = estimates {
-        w.flush().map_err(io_err)?;
-    }
+    // Whatever ended the log (its time, a signal, a full disk, the port), the device goes back
+    // to its normal output and the file is closed with what it has.
     let off = expect_ok(&mut link, "RAW,0");
+    let closed = writer.finish().map(|_| ()).map_err(io_err);
+    let closed = closed.and(estimates.map_or(Ok(()), |mut w| w.flush().map_err(io_err)));
+    let result = result.and(closed);
     eprintln!("{rows} rows written to {} ({} raw cycles skipped)", out.display(), joiner.skipped);
     if restart && gaps.missing > 0 {
         eprintln!(

@@ -234,7 +234,7 @@ fn send_list_without_an_index_lists_every_setting() {
     assert_eq!(row("output.prdid")[1..], ["1"]);
 }
 
-/// Ctrl-C (SIGINT) ends `live` at once and cleanly: exit status 0, no error (the `ctrlc`
+/// Ctrl-C (SIGINT) ends `live` at once and cleanly: exit status 0, no error (the signal
 /// handler sets the flag its loop reads; without it the process dies of the signal).
 #[test]
 fn ctrl_c_ends_live_cleanly() {
@@ -261,4 +261,150 @@ fn ctrl_c_ends_live_cleanly() {
     };
     let _ = std::io::Read::read_to_string(&mut out, &mut String::new());
     assert!(status.success(), "{status:?}");
+}
+
+/// `log` in the background, its output file, and a way to wait for its end.
+struct Logging {
+    child: Child,
+    csv: std::path::PathBuf,
+    _dir: tempfile::TempDir,
+}
+
+impl Logging {
+    /// `log --out DIR/trace.csv` on `emu`, started through `sh -c` with `ignore` (e.g.
+    /// `trap "" INT HUP`: how a background job or `nohup` starts it) before the `exec`.
+    fn start(emu: &Emulator, ignore: &str) -> Logging {
+        let dir = tempfile::tempdir().unwrap();
+        let csv = dir.path().join("trace.csv");
+        let script = format!("{ignore}\nexec \"$0\" log \"$1\" --out \"$2\"");
+        let child = Command::new("sh")
+            .args(["-c", &script, BIN, &emu.port, csv.to_str().unwrap()])
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("run log");
+        Logging { child, csv, _dir: dir }
+    }
+
+    /// Wait until the file holds at least `rows` data rows (lines not starting with `#`, less
+    /// the header), at most 20 s; how many it holds then.
+    fn wait_rows(&self, rows: usize) -> usize {
+        let start = Instant::now();
+        loop {
+            let text = std::fs::read_to_string(&self.csv).unwrap_or_default();
+            let n = text.lines().filter(|l| !l.starts_with('#')).count().saturating_sub(1);
+            if n >= rows {
+                return n;
+            }
+            assert!(start.elapsed() < Duration::from_secs(20), "{n} rows after 20 s");
+            std::thread::sleep(Duration::from_millis(50));
+        }
+    }
+
+    fn signal(&self, sig: &str) {
+        let ok = Command::new("kill").args([sig, &self.child.id().to_string()]).status().unwrap();
+        assert!(ok.success());
+    }
+
+    /// The exit status and stderr, within `seconds`; `None` if still running then.
+    fn wait(&mut self, seconds: f64) -> Option<(std::process::ExitStatus, String)> {
+        let start = Instant::now();
+        while start.elapsed() < Duration::from_secs_f64(seconds) {
+            if let Some(s) = self.child.try_wait().unwrap() {
+                let mut err = String::new();
+                std::io::Read::read_to_string(self.child.stderr.as_mut().unwrap(), &mut err).ok();
+                return Some((s, err));
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        None
+    }
+}
+
+impl Drop for Logging {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// The device's raw-mode bit (STATUS flags bit 2).
+fn raw_mode_on(emu: &Emulator) -> bool {
+    let s = stdout(&emu.tool(&["send", "STATUS"]));
+    let flags = s.split(',').nth(6).unwrap_or("");
+    u16::from_str_radix(flags, 16).expect("STATUS flags") & 0x4 != 0
+}
+
+/// Issue #39, point 1: SIGTERM (and SIGHUP, SIGINT) ends `log` the way its time does: exit 0,
+/// every row on disk, the device out of raw mode. Before, SIGTERM killed it with a 0-byte file
+/// (the rows were buffered) and the device left in raw mode.
+#[test]
+fn sigterm_or_sighup_ends_log_with_its_rows_and_the_device_as_it_was() {
+    let emu = Emulator::start(&[]);
+    for sig in ["-TERM", "-HUP", "-INT"] {
+        let mut log = Logging::start(&emu, "");
+        log.wait_rows(100);
+        log.signal(sig);
+        let (status, err) = log.wait(5.0).unwrap_or_else(|| panic!("{sig}: log still running"));
+        assert!(status.success(), "{sig}: {status:?} {err}");
+        let (_, rows) = host_tests::trace::read_trace_file(&log.csv).expect("the log parses");
+        assert!(rows.len() >= 100, "{sig}: {} rows", rows.len());
+        assert!(err.contains(&format!("{} rows written", rows.len())), "{sig}: {err}");
+        assert!(!raw_mode_on(&emu), "{sig}: raw mode left on");
+    }
+}
+
+/// Started as a background job or under `nohup` (SIGINT and SIGHUP ignored when it starts),
+/// `log` leaves those ignored, as it was asked, and still ends cleanly on SIGTERM. Before, the
+/// signal library refused to install anything when a signal was not at its default, and
+/// SIGTERM left the device in raw mode.
+#[test]
+fn as_a_background_job_log_keeps_ignoring_int_and_hup_and_ends_on_term() {
+    let emu = Emulator::start(&[]);
+    let mut log = Logging::start(&emu, "trap '' INT HUP");
+    log.wait_rows(50);
+    log.signal("-INT");
+    log.signal("-HUP");
+    assert!(log.wait(1.0).is_none(), "an ignored signal ended the log");
+    log.signal("-TERM");
+    let (status, err) = log.wait(5.0).expect("log still running after SIGTERM");
+    assert!(status.success(), "{status:?} {err}");
+    assert!(!raw_mode_on(&emu), "raw mode left on");
+}
+
+/// A kill that cannot be caught (SIGKILL) loses at most the row being written: the rows
+/// before it are on disk, each flushed as it comes (they appear one by one: the first time the
+/// file shows any, it shows a few, where 64 KiB blocks showed about 1,100 at once).
+#[test]
+fn after_a_sigkill_the_rows_so_far_are_on_disk() {
+    let emu = Emulator::start(&[]);
+    let mut log = Logging::start(&emu, "");
+    let first = log.wait_rows(1);
+    assert!(first < 50, "the first rows appeared {first} at once");
+    log.wait_rows(100);
+    log.signal("-KILL");
+    log.wait(5.0).expect("killed");
+    let text = std::fs::read_to_string(&log.csv).unwrap();
+    // t, gyro, accel, mag, depth: 11 cells.
+    let complete = text.lines().filter(|l| !l.starts_with('#') && l.split(',').count() == 11);
+    assert!(complete.count() >= 100, "{text:.300}");
+    // The device stays in raw mode (nothing could switch it back); the next tool does.
+    assert!(emu.tool(&["send", "RAW,0"]).status.success());
+}
+
+/// A signal during the settings walk, before the log starts: nothing written, no file, the
+/// device never switched to raw mode. Before, SIGINT in the walk's first seconds killed the
+/// tool (no handler yet).
+#[test]
+fn a_signal_before_the_log_starts_leaves_no_file() {
+    // In real time the walk takes seconds (a `GET` per setting, each answered in a cycle).
+    let emu = Emulator::start_at(1.0, &[]);
+    let mut log = Logging::start(&emu, "");
+    std::thread::sleep(Duration::from_millis(500));
+    log.signal("-INT");
+    let (status, err) = log.wait(20.0).expect("log still running");
+    assert!(!status.success(), "{status:?} {err}");
+    assert!(err.contains("interrupted before the log started"), "{err}");
+    assert!(!log.csv.exists(), "a file was written");
+    assert!(!raw_mode_on(&emu));
 }

@@ -692,6 +692,14 @@ impl<W: Write> TraceWriter<W> {
         line.finish(&mut self.w)
     }
 
+    /// Write what is buffered and flush the inner writer (a log's rows reach the disk as they
+    /// come).
+    pub fn flush(&mut self) -> io::Result<()> {
+        self.w.write_all(&self.buf)?;
+        self.buf.clear();
+        self.w.flush()
+    }
+
     /// Write what is buffered, flush and return the inner writer. Rows are buffered: without
     /// this call the last rows are lost.
     pub fn finish(mut self) -> io::Result<W> {

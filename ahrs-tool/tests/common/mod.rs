@@ -23,8 +23,13 @@ pub struct Emulator {
 impl Emulator {
     /// Start it and wait for the port it prints.
     pub fn start(extra: &[&str]) -> Emulator {
+        Self::start_at(10.0, extra)
+    }
+
+    /// [`Emulator::start`] at `speed` times real time.
+    pub fn start_at(speed: f64, extra: &[&str]) -> Emulator {
         let mut child = Command::new(BIN)
-            .args(["emulate", "--pty", "--speed", "10"])
+            .args(["emulate", "--pty", "--speed", &speed.to_string()])
             .args(extra)
             .stdout(Stdio::piped())
             .stderr(Stdio::null())
