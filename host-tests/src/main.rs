@@ -60,7 +60,8 @@ enum Cmd {
         /// Sample rate, Hz.
         #[arg(long, default_value_t = 50.0, value_parser = parse_positive)]
         rate: f64,
-        /// Duration, s (default: 200 s, or 3600 s for the hour scenarios).
+        /// Duration, s (default: 200 s, or 3600 s for the hour scenarios; at most 1,000,000 s,
+        /// and at most 50,000,000 rows at the rate given).
         #[arg(long, value_parser = parse_non_negative)]
         duration: Option<f64>,
         /// Noise seed.
@@ -158,6 +159,11 @@ fn parse_non_negative(s: &str) -> Result<f64, String> {
     }
 }
 
+/// The longest `simulate --duration`, s (11.6 days; 140,000 s is a documented run).
+const MAX_SIM_DURATION_S: f64 = 1e6;
+/// The most rows `simulate` writes (about 5 GB of CSV at ~100 bytes a row).
+const MAX_SIM_ROWS: f64 = 5e7;
+
 fn simulate(
     scenario: Scenario,
     out: &Path,
@@ -167,6 +173,20 @@ fn simulate(
     mag: bool,
     realistic: bool,
 ) -> Result<(), String> {
+    // Refused before anything is written: a run that would never end, or fill the disk.
+    let seconds = duration.unwrap_or(scenario.default_duration());
+    if seconds > MAX_SIM_DURATION_S {
+        return Err(format!(
+            "--duration {seconds}: at most {MAX_SIM_DURATION_S} s (11.6 days) per trace"
+        ));
+    }
+    if seconds * rate > MAX_SIM_ROWS {
+        return Err(format!(
+            "{seconds} s at {rate} Hz is {:.0} rows: at most {MAX_SIM_ROWS:.0} per trace \
+             (about 5 GB); shorten --duration or lower --rate",
+            seconds * rate
+        ));
+    }
     let opts = SimOptions { rate_hz: rate, duration_s: duration, seed, mag, realistic };
     let (sim, cfg) = scenario.simulator_with(&opts);
     let rows = sim.len();

@@ -133,6 +133,10 @@ fn bad_arguments_give_one_line_errors() {
         vec!["simulate", "pitch-sine", "--out", p(&out), "--rate", "0"],
         vec!["simulate", "pitch-sine", "--out", p(&out), "--duration", "-1"],
         vec!["simulate", "pitch-sine"],
+        // Issue #39: a trace that would never end or fill the disk is refused at once (the
+        // limits: 1,000,000 s, 50,000,000 rows), with no file, not even a hidden one.
+        vec!["simulate", "pitch-sine", "--out", p(&out), "--duration", "1e12"],
+        vec!["simulate", "pitch-sine", "--out", p(&out), "--rate", "1e9"],
         vec!["replay", p(&missing), "--out", p(&out)],
         vec!["replay", p(&missing), "--out", p(&out), "--filter", "kalman"],
         vec!["frobnicate"],
@@ -143,6 +147,7 @@ fn bad_arguments_give_one_line_errors() {
         assert_eq!(err.trim_end().lines().count(), 1, "{args:?}: {err}");
         assert!(err.starts_with("error: "), "{err}");
         assert!(!out.exists());
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0, "{args:?}: a file was left");
     }
 }
 
