@@ -246,7 +246,6 @@ impl TraceMeta {
     /// Read the comments of a trace up to its first data line (the header and the comments
     /// around it).
     pub fn read(path: &Path) -> std::io::Result<TraceMeta> {
-        use std::io::BufRead;
         let f = std::fs::File::open(path)?;
         let mut meta = TraceMeta::default();
         let mut header_seen = false;
@@ -255,10 +254,16 @@ impl TraceMeta {
         let mut line = 0usize;
         loop {
             buf.clear();
-            if r.read_until(b'\n', &mut buf)? == 0 {
+            let Some(whole) = crate::trace::read_line_bounded(&mut r, &mut buf)? else {
                 break;
-            }
+            };
             line += 1;
+            if !whole {
+                return Err(std::io::Error::new(
+                    std::io::ErrorKind::InvalidData,
+                    crate::trace::TraceError::LineTooLong { line }.to_string(),
+                ));
+            }
             let text = String::from_utf8_lossy(&buf);
             let t = text.trim().trim_start_matches('\u{feff}');
             if t.is_empty() {

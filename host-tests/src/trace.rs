@@ -77,6 +77,12 @@ impl TraceRow {
 pub enum TraceError {
     /// Reading failed.
     Io(io::Error),
+    /// A line is longer than [`MAX_LINE_BYTES`] (no trace line is: a row of every column is a
+    /// few hundred bytes); read no further, so memory stays bounded on any input.
+    LineTooLong {
+        /// 1-based line number.
+        line: usize,
+    },
     /// No header line (the file is empty or only has comments).
     NoHeader,
     /// A line is not valid UTF-8.
@@ -153,12 +159,27 @@ pub enum TraceError {
     },
 }
 
+/// The longest line a trace, estimate or settings file may have, bytes (with its line break).
+pub const MAX_LINE_BYTES: usize = 64 * 1024;
+
+/// One line into `buf` (appended, line break included), reading at most [`MAX_LINE_BYTES`] +
+/// 1 bytes: `Ok(None)` at the end of the input, `Ok(Some(false))` for a line over the limit
+/// (the rest of it is not read), `Ok(Some(true))` otherwise.
+pub fn read_line_bounded<R: BufRead>(r: &mut R, buf: &mut Vec<u8>) -> io::Result<Option<bool>> {
+    let n = io::Read::take(r, MAX_LINE_BYTES as u64 + 1).read_until(b'\n', buf)?;
+    Ok(match n {
+        0 => None,
+        n => Some(n <= MAX_LINE_BYTES),
+    })
+}
+
 impl TraceError {
     /// The 1-based line the error is on, when it is about a line.
     pub fn line(&self) -> Option<usize> {
         match self {
             TraceError::Io(_) | TraceError::NoHeader => None,
             TraceError::InvalidUtf8 { line }
+            | TraceError::LineTooLong { line }
             | TraceError::MissingColumn { line, .. }
             | TraceError::DuplicateColumn { line, .. }
             | TraceError::CellCount { line, .. }
@@ -192,6 +213,11 @@ impl fmt::Display for TraceError {
             TraceError::Io(e) => write!(f, "read error: {e}"),
             TraceError::NoHeader => write!(f, "no header line (empty file?)"),
             TraceError::InvalidUtf8 { line } => write!(f, "line {line}: not valid UTF-8"),
+            TraceError::LineTooLong { line } => write!(
+                f,
+                "line {line}: longer than {MAX_LINE_BYTES} bytes (a trace row is a few hundred): \
+                 not a trace, or its line breaks are missing"
+            ),
             TraceError::MissingColumn { line, column } => {
                 write!(f, "line {line}, column '{column}': missing from the header")
             }
@@ -344,10 +370,13 @@ impl<R: BufRead> CsvReader<R> {
     fn next_content_line(&mut self) -> Result<bool, TraceError> {
         loop {
             self.buf.clear();
-            if self.reader.read_until(b'\n', &mut self.buf)? == 0 {
+            let Some(whole) = read_line_bounded(&mut self.reader, &mut self.buf)? else {
                 return Ok(false);
-            }
+            };
             self.line += 1;
+            if !whole {
+                return Err(TraceError::LineTooLong { line: self.line });
+            }
             let (s, e) = trim_range(&self.buf, 0, self.buf.len());
             if s == e || self.buf[s] == b'#' {
                 continue;
@@ -934,6 +963,63 @@ pub fn read_estimate_file(path: &std::path::Path) -> Result<Vec<EstimateRow>, Tr
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// An endless line with no line break (a multi-gigabyte one as far as any reader can
+    /// tell), counting the bytes it serves.
+    struct Endless<'a> {
+        served: &'a std::cell::Cell<u64>,
+    }
+
+    impl io::Read for Endless<'_> {
+        fn read(&mut self, out: &mut [u8]) -> io::Result<usize> {
+            out.fill(b'1');
+            self.served.set(self.served.get() + out.len() as u64);
+            Ok(out.len())
+        }
+    }
+
+    /// Issue #39, point 3: a line with no end is refused with its line number after
+    /// [`MAX_LINE_BYTES`], having read no more than that and one buffer: memory stays bounded
+    /// (a 200 MB line took 1.2 GB before, and failed with "column '1.0' appears twice").
+    #[test]
+    fn an_endless_line_is_refused_after_the_limit() {
+        let served = std::cell::Cell::new(0u64);
+        let r = io::BufReader::new(Endless { served: &served });
+        let e = TraceReader::new(r).err().expect("refused");
+        assert!(matches!(e, TraceError::LineTooLong { line: 1 }), "{e}");
+        assert!(e.to_string().starts_with("line 1: longer than 65536 bytes"), "{e}");
+        assert!(served.get() <= (MAX_LINE_BYTES + 2 * 8192) as u64, "{} bytes read", served.get());
+        // After a header, on the data line.
+        let served = std::cell::Cell::new(0u64);
+        let head = io::Read::chain(
+            &b"t,gx,gy,gz,ax,ay,az\n0,0,0,0,0,0,-9.8\n"[..],
+            Endless { served: &served },
+        );
+        let mut r = TraceReader::new(io::BufReader::new(head)).unwrap();
+        assert!(r.next_row().unwrap().is_some());
+        let e = r.next_row().err().expect("refused");
+        assert!(matches!(e, TraceError::LineTooLong { line: 3 }), "{e}");
+        assert!(served.get() <= (MAX_LINE_BYTES + 2 * 8192) as u64, "{} bytes read", served.get());
+    }
+
+    /// A line of exactly the limit, its line break included, is read; one byte more is not.
+    #[test]
+    fn the_line_limit_is_exact() {
+        let mut buf = Vec::new();
+        let mut line = vec![b'1'; MAX_LINE_BYTES - 1];
+        line.push(b'\n');
+        assert_eq!(read_line_bounded(&mut &line[..], &mut buf).unwrap(), Some(true));
+        assert_eq!(buf.len(), MAX_LINE_BYTES);
+        let mut longer = vec![b'1'; MAX_LINE_BYTES];
+        longer.push(b'\n');
+        buf.clear();
+        assert_eq!(read_line_bounded(&mut &longer[..], &mut buf).unwrap(), Some(false));
+        // The last line of a file needs no line break.
+        buf.clear();
+        assert_eq!(read_line_bounded(&mut &b"1,2"[..], &mut buf).unwrap(), Some(true));
+        buf.clear();
+        assert_eq!(read_line_bounded(&mut &b""[..], &mut buf).unwrap(), None);
+    }
 
     fn read(text: &str) -> Result<Vec<TraceRow>, TraceError> {
         TraceReader::new(text.as_bytes())?.collect()
