@@ -997,7 +997,7 @@ mod tests {
         );
         let mut r = TraceReader::new(io::BufReader::new(head)).unwrap();
         assert!(r.next_row().unwrap().is_some());
-        let e = r.next_row().err().expect("refused");
+        let e = r.next_row().expect_err("refused");
         assert!(matches!(e, TraceError::LineTooLong { line: 3 }), "{e}");
         assert!(served.get() <= (MAX_LINE_BYTES + 2 * 8192) as u64, "{} bytes read", served.get());
     }
