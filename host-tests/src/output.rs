@@ -3,7 +3,9 @@
 //! (and an existing file untouched). `-` is standard output, and an existing destination that
 //! is not a regular file (`/dev/null`, `/dev/stdout`, a pipe) is written in place: nothing is
 //! renamed over it. [`refuse_overwriting_inputs`] keeps a command from writing over the files
-//! it reads.
+//! it reads. An existing read-only file is refused, not replaced; a symbolic link stays a
+//! link and its target is written (issue #39); errors name the user's path and directory,
+//! never the temporary file.
 
 use std::fs::File;
 use std::io::{self, BufWriter, Write};
@@ -18,10 +20,16 @@ fn parent_dir(path: &Path) -> PathBuf {
 
 fn temp_in(path: &Path, suffix: &str) -> io::Result<tempfile::NamedTempFile> {
     let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let dir = parent_dir(path);
+    // The temporary file's own name is nobody's business: the error names the directory.
     let tmp = tempfile::Builder::new()
         .prefix(&format!(".{name}."))
         .suffix(suffix)
-        .tempfile_in(parent_dir(path))?;
+        .tempfile_in(&dir)
+        .map_err(|e| {
+            let kind = io::Error::from(e.kind());
+            io::Error::new(e.kind(), format!("cannot write in {}: {kind}", dir.display()))
+        })?;
     // Temporary files are created private (0600); the result is an ordinary output file.
     #[cfg(unix)]
     {
@@ -86,6 +94,32 @@ fn direct(path: &Path) -> io::Result<Option<File>> {
     }
 }
 
+/// The file to replace for the output `path`: the final target of a symbolic link (the link
+/// stays; a dangling link's target is created), else `path`. An existing read-only regular
+/// file is refused: replacing it by renaming would ignore its mode.
+fn target(path: &Path) -> io::Result<PathBuf> {
+    let mut t = path.to_path_buf();
+    // A chain of links, each relative to its own directory; bounded like the kernel's.
+    for _ in 0..40 {
+        match std::fs::symlink_metadata(&t) {
+            Ok(m) if m.file_type().is_symlink() => {
+                let next = std::fs::read_link(&t)?;
+                t = if next.is_absolute() { next } else { parent_dir(&t).join(next) };
+            }
+            _ => break,
+        }
+    }
+    if let Ok(m) = std::fs::metadata(&t) {
+        if m.is_file() && m.permissions().readonly() {
+            return Err(io::Error::new(
+                io::ErrorKind::PermissionDenied,
+                "read-only: not replaced (make it writable, or choose another name)",
+            ));
+        }
+    }
+    Ok(t)
+}
+
 /// Run `f` on a buffered writer to a temporary file next to `path`; on `Ok`, flush and rename
 /// it to `path`. On `Err` (from `f` or the final flush/rename) the temporary file is removed.
 /// `-` and existing non-regular files are written directly (see the module documentation).
@@ -100,6 +134,7 @@ where
         w.flush()?;
         return Ok(v);
     }
+    let path = &target(path)?;
     let tmp = temp_in(path, ".tmp")?;
     let value = {
         let mut w = BufWriter::with_capacity(1 << 16, tmp.as_file());
@@ -120,6 +155,7 @@ where
     F: FnOnce(&Path) -> Result<T, E>,
 {
     let ext = path.extension().map(|e| format!(".{}", e.to_string_lossy())).unwrap_or_default();
+    let path = &target(path)?;
     let tmp = temp_in(path, &format!(".tmp{ext}"))?;
     let value = f(tmp.path())?;
     tmp.persist(path).map_err(|e| E::from(e.error))?;
@@ -171,6 +207,43 @@ mod tests {
         assert!(refuse_overwriting_inputs(&dir.path().join("new.csv"), &[&input]).is_ok());
         assert!(refuse_overwriting_inputs(Path::new("-"), &[&input]).is_ok());
         assert_eq!(std::fs::read_to_string(&input).unwrap(), "t\n");
+    }
+
+    /// Issue #39, point 2: a read-only output is refused and stays as it was (it used to be
+    /// replaced by a 0644 file); a symbolic link stays a link, its target written (it used to
+    /// be replaced by a regular file); a missing or read-only directory is named in the error,
+    /// not the temporary file.
+    #[cfg(unix)]
+    #[test]
+    fn read_only_files_links_and_directories() {
+        use std::os::unix::fs::PermissionsExt;
+        let dir = tempfile::tempdir().unwrap();
+        let ro = dir.path().join("ro.csv");
+        std::fs::write(&ro, "keep\n").unwrap();
+        std::fs::set_permissions(&ro, std::fs::Permissions::from_mode(0o444)).unwrap();
+        let e = write_atomically(&ro, |w| -> io::Result<()> { w.write_all(b"new") }).unwrap_err();
+        assert!(e.to_string().starts_with("read-only: not replaced"), "{e}");
+        assert_eq!(std::fs::read_to_string(&ro).unwrap(), "keep\n");
+        assert_eq!(std::fs::metadata(&ro).unwrap().permissions().mode() & 0o777, 0o444);
+        // A link, relative, to a file in a subdirectory: the file is written, the link stays.
+        std::fs::create_dir(dir.path().join("sub")).unwrap();
+        let real = dir.path().join("sub").join("real.csv");
+        std::fs::write(&real, "old\n").unwrap();
+        let link = dir.path().join("link.csv");
+        std::os::unix::fs::symlink("sub/real.csv", &link).unwrap();
+        write_atomically(&link, |w| -> io::Result<()> { w.write_all(b"new\n") }).unwrap();
+        assert!(std::fs::symlink_metadata(&link).unwrap().file_type().is_symlink());
+        assert_eq!(std::fs::read_to_string(&real).unwrap(), "new\n");
+        // Through `produce_atomically` too.
+        produce_atomically(&link, |p| std::fs::write(p, "png\n")).unwrap();
+        assert!(std::fs::symlink_metadata(&link).unwrap().file_type().is_symlink());
+        assert_eq!(std::fs::read_to_string(&real).unwrap(), "png\n");
+        // A missing directory: its name in the error, no temporary file's.
+        let missing = dir.path().join("nope").join("x.csv");
+        let e = write_atomically(&missing, |w| -> io::Result<()> { w.write_all(b"x") })
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("nope") && !e.contains(".x.csv."), "{e}");
     }
 
     #[cfg(unix)]
