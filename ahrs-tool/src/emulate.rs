@@ -23,8 +23,9 @@ use inemo_ahrs::{
     adc::AdcMean,
     board,
     command::{Action, Device, LineAssembler, LineEvent},
-    persist::{self, SimFlash},
+    persist::{self, SimFlash, Source},
     pipeline::{Inputs, Pipeline, PipelineSettings},
+    supervision::{clock_check::HseCheck, selftest},
 };
 
 /// Zero-rate output voltage of the analog gyros, V (as `ekf-emu`).
@@ -195,8 +196,29 @@ fn send(port: &mut impl Write, bytes: &[u8]) {
     }
 }
 
+/// What the emulated board's self-test reads (`SELFTEST`): a healthy board's boot findings —
+/// the 8 MHz crystal, VDDA at the ADC's reference, the ranks aligned, the magnetometer
+/// answering, the gyro references at their zero-rate voltage, a depth sensor connected (the
+/// emulator simulates one: `--depth`) — and, every cycle, the live readings.
+fn healthy_board(settings_from_flash: bool) -> selftest::Inputs {
+    let s = PipelineSettings::default();
+    selftest::Inputs {
+        hse: Some(HseCheck::Ok(board::HSE_HZ)),
+        vdda_v: Some(s.adc.vref_v),
+        ranks_aligned: true,
+        mag_id_ok: Some(true),
+        xy_ref_v: Some(GYRO_ZERO_V),
+        z_ref_v: Some(GYRO_ZERO_V),
+        depth_connected: Some(true),
+        settings_from_flash,
+        ..selftest::Inputs::default()
+    }
+}
+
 /// The emulated firmware: device state, pipeline, flash, the simulated board.
 struct Firmware {
+    /// What the self-test reads ([`healthy_board`], the live readings kept current).
+    selftest: selftest::Inputs,
     device: Device,
     pipeline: Pipeline,
     flash: SimFlash,
@@ -261,6 +283,17 @@ impl Firmware {
 
     fn cycle(&mut self, port: &mut impl Write) {
         let inputs = self.board.inputs();
+        // The live readings, as the firmware's `app::update_board` keeps them.
+        self.selftest.accel_g = inputs.accel_g;
+        if inputs.mag_ut.is_some() {
+            self.selftest.mag_ut = inputs.mag_ut;
+        }
+        if let Some(m) = &inputs.adc {
+            let a = &self.device.settings().adc;
+            let volts = |c: f32| c * a.vref_v / a.full_scale_counts;
+            self.selftest.depth_v = Some((volts(m.depth), false));
+        }
+        self.device.set_board(self.selftest);
         let sample = self.pipeline.conditioned_sample(&inputs);
         let step = self.pipeline.step(&inputs);
         self.device.set_heading_ref(step.heading_ref);
@@ -298,6 +331,7 @@ pub fn run(mut port: impl Read + Write, opts: &Options) -> io::Result<()> {
     let pipeline = Pipeline::new(*device.settings());
     let rate = f64::from(device.settings().filter_rate_hz);
     let mut fw = Firmware {
+        selftest: healthy_board(matches!(loaded.source, Source::Flash { .. })),
         device,
         pipeline,
         flash,

@@ -408,3 +408,25 @@ fn a_signal_before_the_log_starts_leaves_no_file() {
     assert!(!log.csv.exists(), "a file was written");
     assert!(!raw_mode_on(&emu));
 }
+
+/// Issue #37, point 5: the emulator's `SELFTEST` reads as a healthy board with a depth sensor
+/// (the emulator simulates one) reads: the 8 MHz crystal, VDDA 3.3 V, the accelerometer at
+/// 1 g, the gyro references at their zero-rate 1.5 V, the depth channel, no I²C errors; the
+/// one warning is the settings' (defaults, no saved record at boot), and without `--mag` the
+/// magnetometer's (no sample). It used to answer `FAIL,12AAA` with every field empty.
+#[test]
+fn the_emulators_self_test_reads_as_a_healthy_board() {
+    for (extra, grades) in [(&[][..], "10100"), (&["--mag"][..], "10000")] {
+        let emu = Emulator::start(extra);
+        let s = stdout(&emu.tool(&["send", "SELFTEST"]));
+        let f: Vec<&str> = s.trim().split('*').next().unwrap().split(',').collect();
+        assert_eq!(f[..5], ["$PINAR", "OK", "SELFTEST", "WARN", grades], "{s}");
+        assert_eq!((f[5], f[6]), ("8000", "3300"), "{s}");
+        let accel_mg: f32 = f[7].parse().unwrap();
+        assert!((accel_mg - 1000.0).abs() < 10.0, "{s}");
+        assert_eq!(f[8].is_empty(), extra.is_empty(), "{s}");
+        assert_eq!((f[9], f[10]), ("1500", "1500"), "{s}");
+        assert!(f[11].parse::<f32>().unwrap() > 0.0, "{s}");
+        assert_eq!((f[12], f[13]), ("0", "0"), "{s}");
+    }
+}
