@@ -48,6 +48,8 @@ pub struct Options {
     pub follow_acal: bool,
     /// Simulate the magnetometer (the default `mag.*` settings' field).
     pub mag: bool,
+    /// The magnetometer does not answer (`SELFTEST`: FAIL), a test helper.
+    pub broken_mag: bool,
 }
 
 /// A pseudo-terminal: the master side (ours) and the slave's path (the tool's).
@@ -331,7 +333,10 @@ pub fn run(mut port: impl Read + Write, opts: &Options) -> io::Result<()> {
     let pipeline = Pipeline::new(*device.settings());
     let rate = f64::from(device.settings().filter_rate_hz);
     let mut fw = Firmware {
-        selftest: healthy_board(matches!(loaded.source, Source::Flash { .. })),
+        selftest: selftest::Inputs {
+            mag_id_ok: if opts.broken_mag { None } else { Some(true) },
+            ..healthy_board(matches!(loaded.source, Source::Flash { .. }))
+        },
         device,
         pipeline,
         flash,

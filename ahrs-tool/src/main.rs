@@ -158,6 +158,10 @@ enum Cmd {
         /// estimator uses it after `SET,mag.enabled,1`).
         #[arg(long)]
         mag: bool,
+        /// Test helper: the emulated board's magnetometer does not answer, so `SELFTEST`
+        /// says FAIL (`scripts/tests/hil.sh` checks that `scripts/hil` catches it).
+        #[arg(long)]
+        broken_mag: bool,
     },
 }
 
@@ -247,8 +251,16 @@ fn main() -> ExitCode {
         Cmd::Settings { action: SettingsAction::Put { port, file, save } } => {
             settings_cmd::put(&port, &file, save)
         }
-        Cmd::Emulate { pty, port, scenario, speed, depth, seed, follow_acal, mag } => {
-            let opts = emulate::Options { scenario, speed, depth_m: depth, seed, follow_acal, mag };
+        Cmd::Emulate { pty, port, scenario, speed, depth, seed, follow_acal, mag, broken_mag } => {
+            let opts = emulate::Options {
+                scenario,
+                speed,
+                depth_m: depth,
+                seed,
+                follow_acal,
+                mag,
+                broken_mag,
+            };
             emulator(pty, port, &opts)
         }
     };
