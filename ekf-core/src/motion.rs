@@ -44,6 +44,7 @@
 //! the term a tumble with the iNEMO's 2 % scale error locked itself at `τ_max`: the frame's
 //! error, growing with τ, is horizontal specific force in the estimate's frame and read as
 //! motion (realistic `tumble` 1.4°, now under 0.5°).
+//!
 //! `E` is evaluated at τ = 0 and at `τ_max·0.7^k`, k = 0…7 (down to 0.08·τ_max), and the
 //! smallest wins. With no motion the samples are used raw, as the source did; a hand-held
 //! motion of a few tenths of a g takes `τ_max`.
