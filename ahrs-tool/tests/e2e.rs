@@ -400,7 +400,19 @@ fn a_signal_before_the_log_starts_leaves_no_file() {
     // In real time the walk takes seconds (a `GET` per setting, each answered in a cycle).
     let emu = Emulator::start_at(1.0, &[]);
     let mut log = Logging::start(&emu, "");
-    std::thread::sleep(Duration::from_millis(500));
+    // The tool opens the port after installing its handlers: once it holds the port, the
+    // signal lands in the walk, however loaded the machine.
+    let fds = format!("/proc/{}/fd", log.child.id());
+    let start = Instant::now();
+    while !std::fs::read_dir(&fds)
+        .into_iter()
+        .flatten()
+        .flatten()
+        .any(|e| std::fs::read_link(e.path()).is_ok_and(|l| l == std::path::Path::new(&emu.port)))
+    {
+        assert!(start.elapsed() < Duration::from_secs(20), "log never opened {}", emu.port);
+        std::thread::sleep(Duration::from_millis(10));
+    }
     log.signal("-INT");
     let (status, err) = log.wait(20.0).expect("log still running");
     assert!(!status.success(), "{status:?} {err}");

@@ -7,8 +7,9 @@
 //! writes PLLMUL/PLLSRC, which RM0008 (§8.3.2) allows only with the PLL off. So the clock
 //! tree is first put back as ST's own `SystemInit()` does (CMSIS `system_stm32f10x.c`,
 //! V3.5.0, 11-March-2011: HSION; CFGR &= 0xF8FF0000; CR &= 0xFEF6FFFF; CR &= 0xFFFBFFFF;
-//! CFGR &= 0xFF80FFFF; CIR = 0x009F0000), with two differences: it waits, bounded, for the
-//! switch to the HSI (SWS) before turning the PLL off (RM0008 §8.3.1: PLLON "cannot be
+//! CFGR &= 0xFF80FFFF; CIR = 0x009F0000), with three differences: it switches SYSCLK to the
+//! HSI before it resets the prescalers (APB1 at /1 on a 72 MHz SYSCLK would exceed 36 MHz);
+//! it waits, bounded, for the switch to the HSI (SWS) before turning the PLL off (RM0008 §8.3.1: PLLON "cannot be
 //! cleared if the PLL clock is used as system clock", and HSEON likewise while the HSE feeds
 //! it), and for PLLRDY to clear; and it clears the whole CFGR (its bits are all zero at
 //! reset, SWS follows SW). Register bits from RM0008 Rev 21, §8.3.1 (RCC_CR) and §8.3.2
@@ -96,13 +97,16 @@ pub fn reset_clock_tree<R: RccRegs>(r: &mut R) -> Result<(), ResetError> {
     if !wait(r, |r| r.cr() & CR_HSIRDY != 0) {
         fail(ResetError::HsiNotReady);
     }
-    // SYSCLK to the HSI, the prescalers and MCO to reset (ST's mask: bits 15:0 and 26:24);
-    // the PLL's configuration cannot be written while it runs, so it is cleared after the PLL
-    // is off.
-    r.set_cfgr(r.cfgr() & CFGR_KEEP_PLL);
+    // SYSCLK to the HSI first, the prescalers kept until it has switched (ST's single write
+    // sets APB1 to /1 while SYSCLK may still be the PLL's 72 MHz, twice APB1's 36 MHz limit,
+    // for the switch's few cycles); then the prescalers and MCO to reset (ST's mask: bits
+    // 15:0 and 26:24). The PLL's configuration cannot be written while it runs, so it is
+    // cleared after the PLL is off.
+    r.set_cfgr(r.cfgr() & !CFGR_SW);
     if !wait(r, |r| r.cfgr() & CFGR_SWS == 0) {
         fail(ResetError::NotOnHsi { sws: ((r.cfgr() & CFGR_SWS) >> 2) as u8 });
     }
+    r.set_cfgr(r.cfgr() & CFGR_KEEP_PLL);
     // PLL, clock security and HSE off (in that order of dependence), then the bypass.
     r.set_cr(r.cr() & !(CR_PLLON | CR_CSSON));
     if !wait(r, |r| r.cr() & CR_PLLRDY == 0) {
