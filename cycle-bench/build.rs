@@ -7,7 +7,11 @@
 //!   initialisation window (run by `ahrs_bench_select`, not measured);
 //! - `MOTION_LEN` samples (8 s) of smooth motion that every filter's gate accepts: roll
 //!   8° at 0.25 Hz, pitch 15° at 0.125 Hz, yaw 30° at 0.125 Hz, as an ROV pitching and
-//!   yawing in a swell. Whole periods, so the benchmark can loop over it seamlessly.
+//!   yawing in a swell. Whole periods, so the benchmark can loop over it seamlessly;
+//! - `MOVING`: the same rotations, `MOTION_LEN` samples, with a hand's horizontal shaking on
+//!   top (north 0.3 g at 1 Hz, east 0.2 g at 0.75 Hz; whole periods too): the motion that
+//!   makes the EKF low-pass its tilt measurement (issue #35's time constant above 0), which
+//!   the gentle lap, taken raw, does not.
 //!
 //! Sensors: the board's gyro bias (1.619, 3.440, −0.004) °/s and white noise (0.58, 0.52,
 //! 0.065) °/s per sample, the LSM303DLH's 0.0015 g accelerometer noise, no linear
@@ -46,16 +50,29 @@ fn motion(t: f64) -> ([f64; 3], [f64; 3]) {
     )
 }
 
+/// The `MOVING` lap's horizontal acceleration at motion time `t`, NED, m/s².
+fn shaking(t: f64) -> [f64; 3] {
+    [0.3 * G * (2.0 * PI * t).sin(), 0.2 * G * (2.0 * PI * 0.75 * t + 0.5).sin(), 0.0]
+}
+
 /// Body rates (FRD) from Z-Y-X Euler angles and rates, and the accelerometer's specific force
-/// (gravity only) in the body frame, m/s².
-fn body(e: [f64; 3], de: [f64; 3]) -> ([f64; 3], [f64; 3]) {
-    let ([phi, theta, _], [dphi, dtheta, dpsi]) = (e, de);
+/// (gravity, and the acceleration `acc` in NED, m/s²) in the body frame, m/s².
+fn body(e: [f64; 3], de: [f64; 3], acc: [f64; 3]) -> ([f64; 3], [f64; 3]) {
+    let ([phi, theta, psi], [dphi, dtheta, dpsi]) = (e, de);
     let w = [
         dphi - dpsi * theta.sin(),
         dtheta * phi.cos() + dpsi * theta.cos() * phi.sin(),
         -dtheta * phi.sin() + dpsi * theta.cos() * phi.cos(),
     ];
-    let a = [G * theta.sin(), -G * phi.sin() * theta.cos(), -G * phi.cos() * theta.cos()];
+    let (sf, cf, st, ct, sp, cp) =
+        (phi.sin(), phi.cos(), theta.sin(), theta.cos(), psi.sin(), psi.cos());
+    // Body → NED, Z-Y-X; the specific force is Rᵀ·(acc − g), g = (0, 0, G).
+    let r = [
+        [cp * ct, cp * st * sf - sp * cf, cp * st * cf + sp * sf],
+        [sp * ct, sp * st * sf + cp * cf, sp * st * cf - cp * sf],
+        [-st, ct * sf, ct * cf],
+    ];
+    let a = [0, 1, 2].map(|i| (0..3).map(|k| r[k][i] * acc[k]).sum::<f64>() - G * r[2][i]);
     (w, a)
 }
 
@@ -76,15 +93,8 @@ fn main() {
     writeln!(src, "pub const MOTION_LEN: usize = {MOTION_LEN};").unwrap();
     writeln!(src, "/// `[dt, gx, gy, gz, ax, ay, az]`: s, rad/s (body FRD), m/s² (body FRD).")
         .unwrap();
-    writeln!(src, "pub static TRACE: [[f32; 7]; {}] = [", INIT_LEN + MOTION_LEN).unwrap();
-    for k in 0..INIT_LEN + MOTION_LEN {
-        let (e, de) = if k < INIT_LEN {
-            let (e, _) = motion(0.0);
-            (e, [0.0; 3])
-        } else {
-            motion((k - INIT_LEN) as f64 * dt)
-        };
-        let (w, a) = body(e, de);
+    let mut row = |e: [f64; 3], de: [f64; 3], acc: [f64; 3], src: &mut String| {
+        let (w, a) = body(e, de, acc);
         let mut row = [dt as f32; 7];
         for i in 0..3 {
             row[1 + i] = (w[i] + bias[i] + gyro_sigma[i] * rng.normal()) as f32;
@@ -94,6 +104,25 @@ fn main() {
         }
         let cells: Vec<String> = row.iter().map(|v| format!("{v:?}")).collect();
         writeln!(src, "    [{}],", cells.join(", ")).unwrap();
+    };
+    writeln!(src, "pub static TRACE: [[f32; 7]; {}] = [", INIT_LEN + MOTION_LEN).unwrap();
+    for k in 0..INIT_LEN + MOTION_LEN {
+        let (e, de) = if k < INIT_LEN {
+            let (e, _) = motion(0.0);
+            (e, [0.0; 3])
+        } else {
+            motion((k - INIT_LEN) as f64 * dt)
+        };
+        row(e, de, [0.0; 3], &mut src);
+    }
+    writeln!(src, "];").unwrap();
+    writeln!(src, "/// The motion part with a hand's horizontal shaking on top (same format).")
+        .unwrap();
+    writeln!(src, "pub static MOVING: [[f32; 7]; {MOTION_LEN}] = [").unwrap();
+    for k in 0..MOTION_LEN {
+        let t = k as f64 * dt;
+        let (e, de) = motion(t);
+        row(e, de, shaking(t), &mut src);
     }
     writeln!(src, "];").unwrap();
     fs::write(out.join("trace.rs"), src).expect("write trace.rs");

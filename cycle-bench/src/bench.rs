@@ -9,8 +9,10 @@ use ekf_core::{
 
 include!(concat!(env!("OUT_DIR"), "/trace.rs"));
 
-/// Filter ids of `ahrs_bench_select`, in order, as the tools name them.
-pub const FILTERS: [&str; 5] = ["ekf", "ukf", "ssukf", "cf", "gyro"];
+/// Filter ids of `ahrs_bench_select`, in order, as the tools name them. `ekf-moving` is the
+/// EKF on the `MOVING` lap (a hand's shaking: the tilt low-pass in use), the others run on the
+/// gentle motion part of `TRACE` (which the EKF takes raw).
+pub const FILTERS: [&str; 6] = ["ekf", "ukf", "ssukf", "cf", "gyro", "ekf-moving"];
 
 /// `ahrs_bench_select`: unknown filter id.
 pub const BAD_ID: u32 = 1;
@@ -36,6 +38,8 @@ struct State {
     active: Active,
     /// Next motion sample, `0..MOTION_LEN`.
     cursor: usize,
+    /// The motion samples come from `MOVING`, not from `TRACE`'s motion part.
+    moving: bool,
     /// FNV-1a digest of every step's full state so far ([`ahrs_bench_digest`]).
     digest: u32,
 }
@@ -46,11 +50,13 @@ pub struct Global<T>(UnsafeCell<T>);
 // core, called from the thread mode of a bare-metal program or from one host thread).
 unsafe impl<T> Sync for Global<T> {}
 
-static STATE: Global<State> =
-    Global(UnsafeCell::new(State { active: Active::None, cursor: 0, digest: FNV_OFFSET }));
+static STATE: Global<State> = Global(UnsafeCell::new(State {
+    active: Active::None,
+    cursor: 0,
+    moving: false,
+    digest: FNV_OFFSET,
+}));
 
-/// Euler output of the last step, rad: roll, pitch, yaw. Written volatile so that the
-/// conversion is part of every step.
 /// The soft-float routines linked (`libgcc` or `compiler-builtins`; tools/soft_float.rs),
 /// NUL-terminated, for the cycle counter's report.
 #[no_mangle]
@@ -66,6 +72,8 @@ pub static AHRS_BENCH_SOFTFLOAT: [u8; SOFTFLOAT.len() + 1] = {
 };
 const SOFTFLOAT: &str = env!("AHRS_SOFTFLOAT_USED");
 
+/// Euler output of the last output step, rad: roll, pitch, yaw. Written volatile so that the
+/// conversion is part of every output step.
 #[no_mangle]
 pub static AHRS_BENCH_EULER: Global<[f32; 3]> = Global(UnsafeCell::new([0.0; 3]));
 
@@ -85,21 +93,31 @@ fn sample(row: &[f32; 7]) -> ImuSample {
     ImuSample::new(row[0], Vec3::new(row[1], row[2], row[3]), Vec3::new(row[4], row[5], row[6]))
 }
 
+/// Filter updates per Euler output: the firmware's defaults, 50 Hz filter and 10 Hz output
+/// (`filter.rate`, `output.rate` in `src/settings.rs`; `src/pipeline.rs` converts the
+/// attitude only when an output is due).
+pub const OUTPUT_DIVIDER: usize = 5;
+
 impl State {
+    /// The next motion sample, and whether its step ends with an output (every
+    /// [`OUTPUT_DIVIDER`]-th of the lap, its last included).
     #[inline(always)]
-    fn next_sample(&mut self) -> ImuSample {
+    fn next_sample(&mut self) -> (ImuSample, bool) {
         let i = self.cursor % MOTION_LEN;
         self.cursor = (i + 1) % MOTION_LEN;
-        sample(&TRACE[INIT_LEN + i])
+        let row = if self.moving { &MOVING[i] } else { &TRACE[INIT_LEN + i] };
+        (sample(row), i % OUTPUT_DIVIDER == OUTPUT_DIVIDER - 1)
     }
 }
 
 #[inline(always)]
-fn run<F: AttitudeFilter>(f: &mut F, s: &ImuSample) -> u32 {
+fn run<F: AttitudeFilter>(f: &mut F, s: &ImuSample, output: bool) -> u32 {
     let flags = f.update(s);
-    let Euler { roll, pitch, yaw } = f.euler();
-    // SAFETY: see `Global`.
-    unsafe { core::ptr::write_volatile(AHRS_BENCH_EULER.0.get(), [roll, pitch, yaw]) };
+    if output {
+        let Euler { roll, pitch, yaw } = f.euler();
+        // SAFETY: see `Global`.
+        unsafe { core::ptr::write_volatile(AHRS_BENCH_EULER.0.get(), [roll, pitch, yaw]) };
+    }
     flags.0 as u32
 }
 
@@ -110,9 +128,9 @@ macro_rules! step_fn {
         #[inline(never)]
         pub extern "C" fn $name() -> u32 {
             let st = state();
-            let s = st.next_sample();
+            let (s, output) = st.next_sample();
             match &mut st.active {
-                Active::$variant(f) => run(f, &s),
+                Active::$variant(f) => run(f, &s, output),
                 _ => NOT_SELECTED,
             }
         }
@@ -120,33 +138,33 @@ macro_rules! step_fn {
 }
 
 step_fn!(
-    /// One EKF update and Euler output on the next motion sample.
+    /// One EKF update on the next motion sample, and its Euler output when one is due.
     ahrs_bench_step_ekf,
     Ekf
 );
 step_fn!(
-    /// One UKF update and Euler output on the next motion sample.
+    /// One UKF update on the next motion sample, and its Euler output when one is due.
     ahrs_bench_step_ukf,
     Ukf
 );
 step_fn!(
-    /// One SS-UKF update and Euler output on the next motion sample.
+    /// One SS-UKF update on the next motion sample, and its Euler output when one is due.
     ahrs_bench_step_ssukf,
     SsUkf
 );
 step_fn!(
-    /// One complementary-filter update and Euler output on the next motion sample.
+    /// One complementary-filter update on the next motion sample, and its Euler output when one is due.
     ahrs_bench_step_cf,
     Cf
 );
 step_fn!(
-    /// One gyro-only update and Euler output on the next motion sample.
+    /// One gyro-only update on the next motion sample, and its Euler output when one is due.
     ahrs_bench_step_gyro,
     Gyro
 );
 
-/// One update of the selected filter on the next motion sample and its Euler output; returns
-/// the update's flag bits, or [`NOT_SELECTED`].
+/// One update of the selected filter on the next motion sample, and its Euler output when one
+/// is due (every [`OUTPUT_DIVIDER`]-th); returns the update's flag bits, or [`NOT_SELECTED`].
 #[no_mangle]
 pub extern "C" fn ahrs_bench_step() -> u32 {
     match state().active {
@@ -175,6 +193,7 @@ pub extern "C" fn ahrs_bench_select(id: u32) -> u32 {
     let st = state();
     st.active = Active::None;
     st.cursor = 0;
+    st.moving = false;
     st.digest = FNV_OFFSET;
     let ok = match id {
         0 => {
@@ -205,6 +224,17 @@ pub extern "C" fn ahrs_bench_select(id: u32) -> u32 {
             let mut f = GyroOnly::new(s);
             let ok = init_window(&mut f);
             st.active = Active::Gyro(f);
+            ok
+        }
+        5 => {
+            // One lap of the shaking first, not measured: the motion statistic has seen it.
+            let mut f = Ekf::new(s);
+            let ok = init_window(&mut f);
+            for row in &MOVING {
+                f.update(&sample(row));
+            }
+            st.active = Active::Ekf(f);
+            st.moving = true;
             ok
         }
         _ => return BAD_ID,
@@ -294,6 +324,15 @@ mod tests {
                     assert!(f.contains(Flags::ACCEL_USED), "{name} step {k}: {f:?}");
                 }
                 assert!(!f.intersects(bad), "{name} step {k}: {f:?}");
+                // The EKF takes the gentle lap raw and low-passes the shaking one: the two
+                // paths of its tilt update (issue #35's time constant) are both measured.
+                if let Active::Ekf(ekf) = &state().active {
+                    let tau = ekf.time_constant();
+                    match *name {
+                        "ekf" => assert_eq!(tau, 0.0, "{name} step {k}"),
+                        _ => assert!(tau > 1.0, "{name} step {k}: τ {tau} s"),
+                    }
+                }
             }
             // The estimate follows the trace's motion: pitch within ±20°.
             let e = euler_out();

@@ -4,12 +4,14 @@
 //! Exported, unmangled, `extern "C"`:
 //! - `ahrs_bench_init()`: the default `Ekf` (same as `ahrs_bench_select(0)`);
 //! - `ahrs_bench_select(id) -> u32`: a filter with the default settings (0 EKF, 1 UKF,
-//!   2 SS-UKF, 3 complementary, 4 gyro-only), run through its initialisation window on the
-//!   embedded trace's still part; returns 0, or `BAD_ID` / `NOT_INITIALISED`;
+//!   2 SS-UKF, 3 complementary, 4 gyro-only, 5 the EKF on the lap with a hand's shaking), run
+//!   through its initialisation window on the embedded trace's still part; returns 0, or
+//!   `BAD_ID` / `NOT_INITIALISED`;
 //! - `ahrs_bench_step() -> u32`: one full update of the selected filter on the next motion
 //!   sample (for the EKF: prediction, accelerometer update with yaw-split, rest-block
-//!   bookkeeping, health check) and its Euler output (stored in `AHRS_BENCH_EULER`); returns
-//!   the update's `Flags` bits, or `NOT_SELECTED`;
+//!   bookkeeping, health check) and, on every fifth (`OUTPUT_DIVIDER`: the firmware's 10 Hz
+//!   output at its 50 Hz filter rate), its Euler output (stored in `AHRS_BENCH_EULER`);
+//!   returns the update's `Flags` bits, or `NOT_SELECTED`;
 //! - `ahrs_bench_step_<filter>()`: the same for one filter (never inlined: the tools take each
 //!   filter's flash as the code statically reachable from it);
 //! - `cal_*` (target only): hand-counted assembly routines that validate the cycle model

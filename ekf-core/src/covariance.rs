@@ -69,6 +69,9 @@ pub struct TiltRows {
     /// A unit body axis along which the update does not correct the bias (the one the
     /// accelerometer cannot see: NED's vertical, for yaw-split), or zero for none.
     pub vertical: [f32; 3],
+    /// The rows are exactly `[I₂, 0, 0]` (`w` = 1, `J` = 0: a raw sample, no low-pass), and the
+    /// default configuration's update skips the multiplications by 1 and 0 (issue #36).
+    pub raw: bool,
 }
 
 impl TiltRows {
@@ -288,15 +291,29 @@ impl Cov6 {
             let j = &h.j[k];
             let p = &mut self.m;
             let mut c = [0.0f32; N];
+            // A raw sample's row is a unit vector: `c` is P's column, `s` and `e` need no
+            // products (the same values: x·1 = x, x + y·0 = x but for the sign of a zero).
             unroll!(i in [0, 1, 3, 4, 5] {
-                c[i] = h.w * p[i][k] + p[i][3] * j[0] + p[i][4] * j[1] + p[i][5] * j[2];
+                c[i] = if h.raw {
+                    p[i][k]
+                } else {
+                    h.w * p[i][k] + p[i][3] * j[0] + p[i][4] * j[1] + p[i][5] * j[2]
+                };
             });
-            let s = r[k] + h.w * c[k] + j[0] * c[3] + j[1] * c[4] + j[2] * c[5];
+            let s = if h.raw {
+                r[k] + c[k]
+            } else {
+                r[k] + h.w * c[k] + j[0] * c[3] + j[1] * c[4] + j[2] * c[5]
+            };
             if !crate::fcmp::in_pos_range(s, f32::MAX) {
                 return None;
             }
             let inv = 1.0 / s;
-            let e = z[k] - h.w * dx[k] - j[0] * dx[3] - j[1] * dx[4] - j[2] * dx[5];
+            let e = if h.raw {
+                z[k] - dx[k]
+            } else {
+                z[k] - h.w * dx[k] - j[0] * dx[3] - j[1] * dx[4] - j[2] * dx[5]
+            };
             let ei = e * inv;
             // The bias gain without its component along `vertical` (see `update_tracked`).
             let u = &h.vertical;
@@ -506,6 +523,29 @@ mod tests {
         }
     }
 
+    /// A raw sample's rows (`w` = 1, `J` = 0) through the shortcut that skips the products by
+    /// 1 and 0 (issue #36) give the general form's correction and covariance: the same values
+    /// (equal as numbers: only a zero's sign may differ), with and without the vertical.
+    #[test]
+    fn the_raw_rows_shortcut_equals_the_general_update() {
+        let p0 = sample_p();
+        for u in [[0.0; 3], [0.6, 0.0, 0.8]] {
+            let rows = |raw| TiltRows { w: 1.0, j: [[0.0; 3]; 2], vertical: u, raw };
+            let (mut general, mut short) = (p0, p0);
+            let z = [0.013, -0.021];
+            let r = [1.3e-4, 0.9e-4];
+            let want = general.update_tilt(z, r, &rows(false), YawRow::Untracked).unwrap();
+            let got = short.update_tilt(z, r, &rows(true), YawRow::Untracked).unwrap();
+            assert!(want.iter().any(|v| *v != 0.0));
+            for i in 0..6 {
+                assert_eq!(got[i], want[i], "dx {i}");
+                for j in 0..6 {
+                    assert_eq!(short.m[i][j], general.m[i][j], "{i},{j}");
+                }
+            }
+        }
+    }
+
     #[test]
     fn tilt_update_matches_joseph_form_and_freezes_yaw() {
         let p0 = sample_p();
@@ -513,8 +553,12 @@ mod tests {
         let z = [0.01, -0.02];
         let vert = [0.6, 0.0, 0.8];
         // A low-passed measurement: part weight on the attitude error, and bias columns.
-        let rows =
-            |vertical| TiltRows { w: 0.7, j: [[-0.8, 0.3, 0.1], [0.2, -0.9, 0.4]], vertical };
+        let rows = |vertical| TiltRows {
+            w: 0.7,
+            j: [[-0.8, 0.3, 0.1], [0.2, -0.9, 0.4]],
+            vertical,
+            raw: false,
+        };
         let hm = [rows(vert).row(0), rows(vert).row(1)];
         assert_eq!(hm[0], [0.7, 0.0, 0.0, -0.8, 0.3, 0.1]);
         assert_eq!(hm[1], [0.0, 0.7, 0.0, 0.2, -0.9, 0.4]);

@@ -397,7 +397,11 @@ impl Ekf {
             self.bias_ref = self.bias + db;
         }
         self.bias += db;
-        self.lp.correct([dx[0], dx[1]], db);
+        if h.raw {
+            self.lp.correct_raw([dx[0], dx[1]]);
+        } else {
+            self.lp.correct([dx[0], dx[1]], db);
+        }
         Flags::ACCEL_USED
     }
 

@@ -301,15 +301,33 @@ impl MotionLevel {
         unroll!(b in [0, 1, 2] {
             best += self.m[b] * self.raw_pass[b];
         });
+        // From the shortest time constant up: the walk's and the scale error's terms alone,
+        // `W·τ + S·τ²`, grow with τ and bound `E` from below (the bands' terms are never
+        // negative), so once they reach the best so far no longer τ can win and the rest of
+        // the grid is skipped (with no motion, all of it). Ties go to the longer time
+        // constant, raw samples keep theirs: the minimum is the same as over the whole grid.
         let mut tau_best = 0.0;
-        for k in 0..GRID {
-            let mut e = w * self.taus[k] + s * self.taus[k] * self.taus[k];
+        let mut grid = false;
+        let better = |e: f32, best: f32, grid: bool| {
+            if grid {
+                crate::fcmp::le(e, best)
+            } else {
+                crate::fcmp::lt(e, best)
+            }
+        };
+        for k in (0..GRID).rev() {
+            let t = self.taus[k];
+            let mut e = w * t + s * t * t;
+            if !better(e, best, grid) {
+                break;
+            }
             unroll!(b in [0, 1, 2] {
                 e += self.m[b] * self.pass[k][b];
             });
-            if e < best {
+            if better(e, best, grid) {
                 best = e;
-                tau_best = self.taus[k];
+                tau_best = t;
+                grid = true;
             }
         }
         tau_best
@@ -324,5 +342,73 @@ impl MotionLevel {
 impl Default for MotionLevel {
     fn default() -> Self {
         Self::new()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::test_rng::TestRng;
+
+    /// `E(τ)` over every candidate, longest first, strictly smaller wins: the rule as
+    /// written in the module documentation, without the early stop.
+    fn exhaustive(m: &MotionLevel, w: f32) -> f32 {
+        if m.cold > 0 {
+            return m.tau_max;
+        }
+        let s = (m.rot[0] * m.rot[0] + m.rot[1] * m.rot[1]) * m.s_scale;
+        let mut best = s * m.tk * m.tk;
+        for b in 0..BANDS {
+            best += m.m[b] * m.raw_pass[b];
+        }
+        let mut tau_best = 0.0;
+        for k in 0..GRID {
+            let mut e = w * m.taus[k] + s * m.taus[k] * m.taus[k];
+            for b in 0..BANDS {
+                e += m.m[b] * m.pass[k][b];
+            }
+            if e < best {
+                best = e;
+                tau_best = m.taus[k];
+            }
+        }
+        tau_best
+    }
+
+    /// The early stop of [`MotionLevel::time_constant`] (issue #36) changes no choice: over
+    /// band powers from none to a hand's, rotations from none to a tumble's, and walks from
+    /// none to ten times the board's, including exact ties (equal powers, zero walk), it picks
+    /// the time constant the exhaustive evaluation picks.
+    #[test]
+    fn the_early_stop_picks_what_the_whole_grid_picks() {
+        let mut rng = TestRng::new(36);
+        let mut level = MotionLevel::new();
+        // 50 Hz, τ_max 2.5 s, the LSM303DLH's and the LPR430AL's noise, k = 0.02.
+        level.set_rate(0.02, 2.5, 3.0e-6, 1.5e-6, 0.02);
+        level.cold = 0;
+        let mut chosen = [0usize; GRID + 1];
+        for n in 0..200_000 {
+            let mag = |rng: &mut TestRng| {
+                let e = rng.uniform() as f32 * 6.0 - 8.0; // 1e-14 … 1e-2
+                if n % 7 == 0 {
+                    0.0
+                } else {
+                    10f32.powf(e)
+                }
+            };
+            level.m = [mag(&mut rng), mag(&mut rng), mag(&mut rng)];
+            if n % 11 == 0 {
+                level.m = [level.m[0]; 3];
+            }
+            let r = if n % 3 == 0 { 0.0 } else { rng.uniform() as f32 * 2.0 };
+            level.rot = [r, rng.uniform() as f32 * r];
+            let w =
+                if n % 5 == 0 { 0.0 } else { 1.1e-6 * (1.0 + 9.0 * rng.uniform() as f32).abs() };
+            let (fast, all) = (level.time_constant(w), exhaustive(&level, w));
+            assert_eq!(fast.to_bits(), all.to_bits(), "case {n}: {level:?}, w {w}");
+            chosen[level.taus.iter().position(|&t| t == all).map_or(0, |k| k + 1)] += 1;
+        }
+        // The cases reach raw samples and every time constant of the grid.
+        assert!(chosen.iter().all(|&c| c > 100), "{chosen:?}");
     }
 }

@@ -47,12 +47,23 @@ pub struct TiltLowPass {
     w: [f32; 2],
     /// Each state's sensitivity to the bias error: `j[state][component][axis]`.
     j: [[[f32; 3]; 2]; 2],
+    /// The states hold one raw sample (τ = 0): weights exactly (0, 1), `J_v` = 0.
+    raw: bool,
+    /// ... and no propagation since: `J` = 0 (`H = [I₂, 0, 0]`).
+    fresh: bool,
 }
 
 impl TiltLowPass {
     /// An empty filter.
     pub const fn new() -> Self {
-        TiltLowPass { k: None, y: [[0.0; 2]; 2], w: [0.0; 2], j: [[[0.0; 3]; 2]; 2] }
+        TiltLowPass {
+            k: None,
+            y: [[0.0; 2]; 2],
+            w: [0.0; 2],
+            j: [[[0.0; 3]; 2]; 2],
+            raw: false,
+            fresh: false,
+        }
     }
 
     /// Empty the filter, keeping its coefficients.
@@ -75,6 +86,17 @@ impl TiltLowPass {
     /// are now that much further from today's error.
     #[inline(always)]
     pub fn propagate(&mut self, a: &Mat3) {
+        self.fresh = false;
+        if self.raw {
+            // One raw sample: weights (0, 1), so `J += w·A` is `J_x += A` and `J_v` stays (the
+            // same values but for the sign of a zero, without 12 products and 6 sums).
+            unroll!(k in [0, 1] {
+                unroll!(i in [0, 1, 2] {
+                    self.j[1][k][i] += a[k][i];
+                });
+            });
+            return;
+        }
         unroll!(s in [0, 1] {
             let w = self.w[s];
             unroll!(k in [0, 1] {
@@ -91,9 +113,18 @@ impl TiltLowPass {
         let u = [-an[1], an[0]];
         let Some([c1, c2, dt]) = self.k else {
             // No low-pass: the sample itself, weight 1, no delay.
-            *self = TiltLowPass { k: None, y: [[0.0; 2], u], w: [0.0, 1.0], j: [[[0.0; 3]; 2]; 2] };
+            *self = TiltLowPass {
+                k: None,
+                y: [[0.0; 2], u],
+                w: [0.0, 1.0],
+                j: [[[0.0; 3]; 2]; 2],
+                raw: true,
+                fresh: true,
+            };
             return;
         };
+        self.raw = false;
+        self.fresh = false;
         // A new sample has weight 1 on today's error and no delay (J = 0).
         unroll!(k in [0, 1] {
             self.y[0][k] += c1 * (u[k] - self.y[1][k]) - c2 * self.y[0][k];
@@ -111,7 +142,18 @@ impl TiltLowPass {
     /// along which the update is not to correct the bias (zero: none).
     #[inline(always)]
     pub fn measurement(&self, vertical: [f32; 3]) -> ([f32; 2], TiltRows) {
-        (self.y[1], TiltRows { w: self.w[1], j: self.j[1], vertical })
+        (self.y[1], TiltRows { w: self.w[1], j: self.j[1], vertical, raw: self.fresh })
+    }
+
+    /// [`TiltLowPass::correct`] after a raw [`TiltLowPass::push`] and no propagation since
+    /// (the measurement's `raw`: weights (0, 1), `J` = 0), which it then equals: only the
+    /// output moves, by `dθ`.
+    #[inline(always)]
+    pub fn correct_raw(&mut self, dtheta: [f32; 2]) {
+        debug_assert!(self.fresh && self.w == [0.0, 1.0] && self.j == [[[0.0; 3]; 2]; 2]);
+        unroll!(k in [0, 1] {
+            self.y[1][k] -= dtheta[k];
+        });
     }
 
     /// The estimate moved by `dθ` (NED x, y; rad) and its bias by `db` (rad/s): take out of
@@ -198,6 +240,50 @@ mod tests {
                 let want = tau * r[k][i];
                 assert!((h.j[k][i] - want).abs() < 0.01 * tau, "{k},{i}: {} vs {want}", h.j[k][i]);
             }
+        }
+    }
+
+    /// The raw shortcuts (issue #36: `propagate` adding `A` to `J_x` alone, the update's unit
+    /// rows, `correct_raw`) hold the values the general arithmetic gives: a copy forced onto
+    /// the general paths (`raw`, `fresh` cleared after each raw push) agrees at every step,
+    /// over raw samples, two propagations and a bias correction without a sample, and the switch to
+    /// a low-pass right after them.
+    #[test]
+    fn the_raw_shortcuts_hold_the_general_values() {
+        let r = Quaternion::from_rotation_vector(Vec3::new(0.2, 0.5, -0.7)).to_rotation_matrix();
+        let a: Mat3 = core::array::from_fn(|i| core::array::from_fn(|j| r[i][j] * 0.02));
+        let (mut fast, mut slow) = (TiltLowPass::new(), TiltLowPass::new());
+        fast.set_rate(0.02, 0.0);
+        slow.set_rate(0.02, 0.0);
+        let db = Vec3::new(0.001, -0.002, 0.0005);
+        for n in 0..40 {
+            if n == 30 {
+                fast.set_rate(0.02, 0.6);
+                slow.set_rate(0.02, 0.6);
+            }
+            for _ in 0..(1 + usize::from(n % 9 == 3)) {
+                fast.propagate(&a);
+                slow.propagate(&a);
+            }
+            if n % 9 == 3 {
+                // A bias measured elsewhere (the rest detector) between propagation and sample.
+                fast.correct([0.0; 2], db);
+                slow.correct([0.0; 2], db);
+            }
+            let an = [0.01 * (n as f32 * 0.3).sin(), -0.02 * (n as f32 * 0.2).cos()];
+            fast.push(an);
+            slow.push(an);
+            (slow.raw, slow.fresh) = (false, false);
+            let (_, h) = fast.measurement([0.0; 3]);
+            assert_eq!(h.raw, n < 30, "step {n}");
+            let dth = [0.001 * n as f32, -0.0005];
+            if h.raw {
+                fast.correct_raw(dth);
+            } else {
+                fast.correct(dth, db);
+            }
+            slow.correct(dth, db);
+            assert_eq!((fast.y, fast.w, fast.j), (slow.y, slow.w, slow.j), "step {n}");
         }
     }
 
