@@ -8,7 +8,7 @@
 //! | `adc_frame` | hardware, DMA1_CHANNEL1 | 3 | copies the finished ADC frame (1 kHz) into the shared `Averager` |
 //! | `usart2_rx` | hardware, USART2 (RXNE) | 4 | received bytes → `LineAssembler`; complete lines queued for `command` |
 //! | `filter` | async, every 1/filter_rate_hz (SysTick monotonic) | 2 | applies pending command actions, reads the LSM303DLH, takes the ADC mean, runs `Pipeline::step` and `Device::on_cycle`, starts the USART DMA (sentences + queued replies), feeds the watchdog |
-//! | `usb_console` | hardware, USB_LP_CAN_RX0 | 1 | polls the USB device (enumeration, CDC-ACM requests); received bytes → its own `LineAssembler`, complete lines queued for `command`; the waiting output → the serial port |
+//! | `usb_console`, `usb_console_hp` | hardware, USB_LP_CAN_RX0, USB_HP_CAN_TX | 1 | polls the USB device (enumeration, CDC-ACM requests); received bytes → its own `LineAssembler`, complete lines queued for `command`; the waiting output → the serial port |
 //! | `command` | async, spawned per received line | 1 | `Device::handle` (may write the settings flash), queues the reply for the port the line came from, and the action |
 //! | `blink` | async, 50 ms slots | 1 | LED pattern from the status the filter reported |
 //!
@@ -132,6 +132,11 @@ mod firmware {
         rx: RxStats,
         cmd: CommandState,
         usb_out: UsbQueue,
+        // Only the two USB interrupts' tasks, both at priority 1, touch these.
+        #[lock_free]
+        usb: Option<UsbConsole>,
+        #[lock_free]
+        usb_lines: Sender<'static, Received, LINE_SLOTS>,
     }
 
     #[local]
@@ -141,12 +146,11 @@ mod firmware {
         pipeline: Pipeline,
         tx: DmaTx,
         led: PB9<Output<PushPull>>,
+        led_state: led::Led,
         sysclk_hz: u32,
         board: selftest::Inputs,
         serial_rx: Rx<USART2>,
         lines: Sender<'static, Received, LINE_SLOTS>,
-        usb: Option<UsbConsole>,
-        usb_lines: Sender<'static, Received, LINE_SLOTS>,
         flash: SettingsFlash,
         watchdog: Watchdog,
     }
@@ -414,6 +418,8 @@ mod firmware {
                 rx: RxStats::default(),
                 cmd: CommandState::new(device),
                 usb_out: UsbQueue::new(),
+                usb,
+                usb_lines,
             },
             Local {
                 adc_scan,
@@ -421,12 +427,11 @@ mod firmware {
                 pipeline: Pipeline::new(settings),
                 tx,
                 led,
+                led_state: led::Led::new(matches!(source, clocks::ClockSource::Hsi)),
                 sysclk_hz,
                 board,
                 serial_rx,
                 lines,
-                usb,
-                usb_lines,
                 flash,
                 watchdog,
             },
@@ -505,16 +510,38 @@ mod firmware {
         }
     }
 
-    /// The USB device's interrupt (and the filter's pend when it queued output): services the
-    /// device, sends received lines to `command` (dropped and counted when the channel is
-    /// full), tells the queue what the host did (configured, DTR), and moves the waiting output
-    /// to the serial port, [`CHUNK`] bytes a lock, until the port takes no more.
-    #[task(binds = USB_LP_CAN_RX0, priority = 1, local = [usb, usb_lines], shared = [rx, usb_out])]
-    fn usb_console(mut cx: usb_console::Context) {
-        let Some(usb) = cx.local.usb.as_mut() else {
+    /// The USB device's low-priority interrupt (every transfer of the control and bulk
+    /// endpoints, and the filter's pend when it queued output): [`service_usb`].
+    #[task(binds = USB_LP_CAN_RX0, priority = 1, shared = [usb, usb_lines, rx, usb_out])]
+    fn usb_console(cx: usb_console::Context) {
+        let s = cx.shared;
+        service_usb(s.usb, s.usb_lines, s.rx, s.usb_out);
+    }
+
+    /// The USB device's high-priority interrupt (RM0008: raised by the isochronous and
+    /// double-buffered bulk endpoints' transfers, which this device does not configure; bound,
+    /// as ST's firmware and the HAL's interrupt example bind it, so that such an interrupt is
+    /// serviced rather than left pending unhandled): the same [`service_usb`], at the same
+    /// priority.
+    #[task(binds = USB_HP_CAN_TX, priority = 1, shared = [usb, usb_lines, rx, usb_out])]
+    fn usb_console_hp(cx: usb_console_hp::Context) {
+        let s = cx.shared;
+        service_usb(s.usb, s.usb_lines, s.rx, s.usb_out);
+    }
+
+    /// Services the USB device, sends received lines to `command` (dropped and counted when
+    /// the channel is full), tells the queue what the host did (configured, DTR; a change of
+    /// DTR also takes back the packet armed for the old reader), and moves the waiting output
+    /// to the IN endpoint, [`CHUNK`] bytes a lock, until it takes no more.
+    fn service_usb(
+        usb: &mut Option<UsbConsole>,
+        lines: &mut Sender<'static, Received, LINE_SLOTS>,
+        mut rx: impl rtic::Mutex<T = RxStats>,
+        mut usb_out: impl rtic::Mutex<T = UsbQueue>,
+    ) {
+        let Some(usb) = usb.as_mut() else {
             return;
         };
-        let lines = &mut *cx.local.usb_lines;
         let mut dropped = 0u32;
         let (configured, dtr) = usb.poll(|line| {
             if lines.try_send(line).is_err() {
@@ -522,15 +549,15 @@ mod firmware {
             }
         });
         if dropped > 0 {
-            cx.shared.rx.lock(|rx| rx.dropped = rx.dropped.saturating_add(dropped));
+            rx.lock(|rx| rx.dropped = rx.dropped.saturating_add(dropped));
         }
         let mut chunk = [0u8; CHUNK];
-        let mut n = cx.shared.usb_out.lock(|q| {
-            q.set_host(configured, dtr);
-            q.peek(&mut chunk)
-        });
+        let (stale, mut n) = usb_out.lock(|q| (q.set_host(configured, dtr), q.peek(&mut chunk)));
+        if stale {
+            usb.discard_armed();
+        }
         // Bounded: the queue holds USB_OUT_LEN bytes.
-        for _ in 0..crate::app::usb::USB_OUT_LEN / CHUNK {
+        for _ in 0..crate::app::usb::USB_OUT_LEN / CHUNK + 1 {
             if n == 0 {
                 break;
             }
@@ -538,7 +565,7 @@ mod firmware {
             if taken == 0 {
                 break;
             }
-            n = cx.shared.usb_out.lock(|q| {
+            n = usb_out.lock(|q| {
                 q.consume(taken);
                 q.peek(&mut chunk)
             });
@@ -655,6 +682,7 @@ mod firmware {
                     report.overall().name(),
                     report.code()
                 );
+                cx.shared.health.lock(|h| h.selftest = Some(report.overall()));
             }
             if let Some(event) = &reading.event {
                 imu::log_event(event);
@@ -792,23 +820,20 @@ mod firmware {
     }
 
     /// The status LED.
-    #[task(priority = 1, local = [led], shared = [health])]
+    #[task(priority = 1, local = [led, led_state], shared = [health])]
     async fn blink(mut cx: blink::Context) {
         let slot_ticks = led::SLOT_MS * (MONO_HZ / 1000);
         let mut next = Mono::now().as_ticks();
-        let mut mode = led::Mode::Init;
-        let mut started = false;
         let mut slot = 0;
         loop {
             if slot == 0 {
                 let health = cx.shared.health.lock(core::mem::take);
-                let new = led::mode(health, started);
-                started |= health.cycles > 0;
-                if new != mode {
-                    defmt::println!("status LED: {=str}", new.name());
-                    mode = new;
+                let (mode, changed) = cx.local.led_state.frame(health);
+                if changed {
+                    defmt::println!("status LED: {=str}", mode.name());
                 }
             }
+            let mode = cx.local.led_state.mode();
             cx.local.led.set_state(PinState::from(led::lit(mode, slot)));
             slot = (slot + 1) % led::SLOTS;
             next = next.wrapping_add(slot_ticks);

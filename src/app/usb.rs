@@ -4,6 +4,14 @@
 //! closed or full) are the library's [`inemo_ahrs::console`], host-tested; this only moves
 //! bytes between the USB device and it.
 //!
+//! Stale output (issue #37 point 4): the class is usbd-serial's bare `CdcAcmClass`, not its
+//! `SerialPort`, whose 128-byte write buffer kept whatever a closed port had not read, so the
+//! next program to open the port read half a sentence first. The only buffer is the library's
+//! queue, which a change of DTR empties ([`UsbOut::set_host`]), and the one packet armed on
+//! the IN endpoint, which is taken back then too (the endpoint set to NAK: RM0008's `STAT_TX`,
+//! through `usb-device`'s stall and unstall). Every packet is short ([`CHUNK`] = 63 bytes), so
+//! each ends its transfer and no zero-length packet is ever owed.
+//!
 //! The D+ pull-up: ST's firmware for this board switches the 1.5 kΩ pull-up on D+ with
 //! [`PullUp`] (PA10, high = connected; `docs/firmware.md`, "USB serial console", cites the
 //! source). Not verified on a board.
@@ -15,7 +23,7 @@ use stm32f1xx_hal::{
     usb::{Peripheral, UsbBus, UsbBusType},
 };
 use usb_device::{bus::UsbBusAllocator, prelude::*};
-use usbd_serial::{SerialPort, USB_CLASS_CDC};
+use usbd_serial::{CdcAcmClass, USB_CLASS_CDC};
 
 /// The pin that switches the D+ pull-up (ST's `iNEMO_USB_DISCONNECT_PIN`: GPIOA pin 10),
 /// driven high to connect. The one place the pin is named.
@@ -31,13 +39,17 @@ pub type UsbQueue = UsbOut<USB_OUT_LEN>;
 /// Hosts bind the CDC-ACM class by its descriptors, not by these.
 const VID_PID: UsbVidPid = UsbVidPid(0x1209, 0x0001);
 
-/// Bytes copied out of the queue per write to the serial port (one full-speed bulk packet).
-pub const CHUNK: usize = 64;
+/// The bulk endpoints' packet size (full speed).
+const MAX_PACKET: u16 = 64;
+/// Bytes copied out of the queue per write: one packet, one byte short of full, so that every
+/// packet ends its transfer (a full one would owe the host a zero-length packet when nothing
+/// follows).
+pub const CHUNK: usize = MAX_PACKET as usize - 1;
 
 /// The USB device and its serial port.
 pub struct UsbConsole {
     dev: UsbDevice<'static, UsbBusType>,
-    serial: SerialPort<'static, UsbBusType>,
+    serial: CdcAcmClass<'static, UsbBusType>,
     lines: PortLines,
     pull_up: PullUp,
 }
@@ -54,7 +66,7 @@ impl UsbConsole {
     ) -> Self {
         let alloc: &'static UsbBusAllocator<UsbBusType> =
             alloc.insert(UsbBus::new(Peripheral { usb, pin_dm: dm, pin_dp: dp }));
-        let serial = SerialPort::new(alloc);
+        let serial = CdcAcmClass::new(alloc, MAX_PACKET);
         let strings = StringDescriptors::default().manufacturer("Seahog").product("iNEMO AHRS");
         // `strings` fails only for more than 16 languages (one here); should it ever, the
         // device enumerates without names rather than the firmware stopping.
@@ -76,10 +88,10 @@ impl UsbConsole {
     /// device, and DTR (for [`UsbOut::set_host`](inemo_ahrs::console::UsbOut::set_host)).
     pub fn poll(&mut self, mut on_line: impl FnMut(Received)) -> (bool, bool) {
         if self.dev.poll(&mut [&mut self.serial]) {
-            let mut buf = [0u8; CHUNK];
-            // Bounded: the port's receive buffer holds 128 bytes.
+            let mut buf = [0u8; MAX_PACKET as usize];
+            // Bounded: one packet a poll is what the endpoint holds; a few for good measure.
             for _ in 0..4 {
-                match self.serial.read(&mut buf) {
+                match self.serial.read_packet(&mut buf) {
                     Ok(n) if n > 0 => {
                         for &b in buf.iter().take(n) {
                             if let Some(r) = self.lines.push(b) {
@@ -94,9 +106,21 @@ impl UsbConsole {
         (self.dev.state() == UsbDeviceState::Configured, self.serial.dtr())
     }
 
-    /// Hands `bytes` to the serial port without waiting: how many it took (0 when its buffer
-    /// is full or the endpoint failed).
+    /// Hands up to [`CHUNK`] of `bytes` to the IN endpoint as one packet without waiting: how
+    /// many it took (0 while the last packet is still armed, or when the endpoint failed).
     pub fn write(&mut self, bytes: &[u8]) -> usize {
-        self.serial.write(bytes).unwrap_or(0)
+        let packet = bytes.get(..bytes.len().min(CHUNK)).unwrap_or(&[]);
+        if packet.is_empty() {
+            return 0;
+        }
+        self.serial.write_packet(packet).unwrap_or(0)
+    }
+
+    /// Takes back the packet armed on the IN endpoint, if any (what the host has not read of
+    /// the old output when the queue discards the rest: [`UsbOut::set_host`]'s answer).
+    pub fn discard_armed(&mut self) {
+        let ep = self.serial.write_ep();
+        ep.stall();
+        ep.unstall();
     }
 }

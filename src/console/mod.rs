@@ -227,14 +227,20 @@ impl<const N: usize> UsbOut<N> {
     /// What the USB task sees of the host: whether it has configured the device, and DTR.
     /// Output is queued while configured. Losing the configuration (unplugged, reset,
     /// suspended) or a change of DTR (a program opened or closed the port) discards what was
-    /// waiting, so that the next reader starts with fresh sentences.
-    pub fn set_host(&mut self, configured: bool, dtr: bool) {
+    /// waiting, so that the next reader starts with fresh sentences. Returns true when a
+    /// configured port's DTR changed: the packet the USB task may have armed for the old
+    /// reader is stale too, and must be taken back (`app::usb`); without a configuration the
+    /// endpoint has none.
+    pub fn set_host(&mut self, configured: bool, dtr: bool) -> bool {
+        let dtr = dtr && configured;
+        let changed = configured && self.open && dtr != self.dtr;
         if !configured || dtr != self.dtr {
             self.head = 0;
             self.len = 0;
         }
         self.open = configured;
-        self.dtr = dtr && configured;
+        self.dtr = dtr;
+        changed
     }
 
     /// True while a host has configured the device: output is queued.

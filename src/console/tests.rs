@@ -286,21 +286,28 @@ fn losing_the_configuration_discards_what_waits() {
 #[test]
 fn a_change_of_dtr_discards_what_waits() {
     let mut usb = UsbOut::<64>::new();
-    usb.set_host(true, false);
+    // Configured with DTR off: nothing was armed for an earlier reader.
+    assert!(!usb.set_host(true, false));
     assert_eq!(usb.offer(b"old"), Offer::Queued);
     // The same state again keeps it (the USB task reports it on every interrupt).
-    usb.set_host(true, false);
+    assert!(!usb.set_host(true, false));
     assert_eq!(usb.len(), 3);
-    // A program opens the port (DTR up): it starts with fresh output.
-    usb.set_host(true, true);
+    // A program opens the port (DTR up): it starts with fresh output, and the packet armed
+    // for nobody is to be taken back.
+    assert!(usb.set_host(true, true));
     assert!(usb.is_empty());
     assert_eq!(usb.offer(b"new"), Offer::Queued);
-    usb.set_host(true, true);
+    assert!(!usb.set_host(true, true));
     assert_eq!(read_all(&mut usb), "new");
     usb.offer(b"left");
-    // It closes the port (DTR down).
-    usb.set_host(true, false);
+    // It closes the port (DTR down): what it did not read is stale for the next one.
+    assert!(usb.set_host(true, false));
     assert!(usb.is_empty());
+    // Unplugged: the configuration, the endpoints and what they held are gone anyway.
+    assert!(!usb.set_host(false, false));
+    assert!(!usb.set_host(false, true));
+    // Configured again with DTR already up (a host that opens the port at once).
+    assert!(!usb.set_host(true, true));
 }
 
 #[test]
