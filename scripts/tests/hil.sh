@@ -12,7 +12,12 @@
 #     exist: "hil: not run: ..." naming it, exit 3, nothing flashed;
 #   - an unknown argument, or --port without a value: exit 2;
 #   - stage 1's checks against the device emulator on a pty (below), the flash and resets
-#     stood in for.
+#     stood in for;
+#   - the DFU route (`--dfu`) against a stand-in `dfu-util` (its `-l` lists a DfuSe device with
+#     the layout FAKE_LAYOUT, or none; `-D` keeps what it was given, `-U` gives it back,
+#     FAKE_CORRUPT=1 one byte changed): not run without a port, without dfu-util or without a
+#     device; a layout not writable from 0x08003000 exactly writes nothing and fails; the whole
+#     route with the emulator as the USB port, and a read-back that differs.
 # The builds are real (warm after `scripts/hil --build-only`, which scripts/test-all runs first).
 set -uo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)
@@ -43,11 +48,34 @@ FAKE
 chmod +x "$t/bin/probe-rs"
 export FAKE_LOG="$t/probe-rs.calls"
 
+mkdir -p "$t/dfubin"
+cat >"$t/dfubin/dfu-util" <<'FAKE'
+#!/usr/bin/env bash
+printf '%s\n' "$*" >>"$FAKE_DFU_LOG"
+case "$*" in
+  -l)
+    echo "dfu-util 0.11"
+    [ -n "$FAKE_LAYOUT" ] &&
+      echo "Found DFU: [0483:df11] ver=0200, devnum=7, cfg=1, intf=0, path=\"1-2\", alt=0, name=\"@Internal Flash  $FAKE_LAYOUT\", serial=\"STM32\""
+    exit 0 ;;
+  *" -D "*) cp "${@: -1}" "$FAKE_DFU_MEM"; exit 0 ;;
+  *" -U "*)
+    cp "$FAKE_DFU_MEM" "${@: -1}"
+    [ "${FAKE_CORRUPT:-0}" = 1 ] && printf 'X' | dd of="${@: -1}" bs=1 seek=100 conv=notrunc 2>/dev/null
+    exit 0 ;;
+esac
+echo "stand-in dfu-util: '$*' is not expected here" >&2
+exit 99
+FAKE
+chmod +x "$t/dfubin/dfu-util"
+export FAKE_DFU_LOG="$t/dfu-util.calls" FAKE_DFU_MEM="$t/dfu-mem.bin"
+
 # run NAME EXPECTED_STATUS ARGS...: runs scripts/hil, output in $t/NAME.out (stdout and stderr).
 run() {
   local name=$1 want=$2
   shift 2
   : >"$FAKE_LOG"
+  : >"$FAKE_DFU_LOG"
   "$@" >"$t/$name.out" 2>&1
   local rc=$?
   [ "$rc" = "$want" ] || fail "$name: exit $rc, expected $want; output: $(tail -n 5 "$t/$name.out")"
@@ -127,6 +155,37 @@ download --chip STM32F103RE $fw
 reset --chip STM32F103RE
 reset --chip STM32F103RE
 run --chip STM32F103RE $suite"
+
+    # The DFU route, the emulator standing in for the firmware's USB port (its SELFTEST reads
+    # as a healthy board's: WARN, crystal 8000 kHz).
+    kill "$emu" 2>/dev/null
+    wait "$emu" 2>/dev/null
+    "$tool" emulate --pty >"$t/emu.out" 2>&1 &
+    emu=$!
+    pty=""
+    for _ in $(seq 100); do
+      pty=$(head -n1 "$t/emu.out" 2>/dev/null)
+      [[ "$pty" == /dev/* ]] && break
+      sleep 0.1
+    done
+    image="$root/target/inemo-ahrs-dfu.bin"
+    size=$(stat -c %s "$image" 2>/dev/null || echo 0)
+    good="/0x08000000/06*002Ka,250*002Kg"
+    run dfu 0 env PATH="$t/dfubin:$PATH" FAKE_LAYOUT="$good" "$hil" --dfu --port "$pty"
+    says dfu "hil: ok: DFU layout $good: writable from 0x08003000"
+    says dfu "hil: ok: DFU download of $image ($size B)"
+    says dfu "hil: ok: read back equal ($size B from 0x08003000)"
+    says dfu "hil: ok: VER: \$PINAR,OK,VER,inemo-ahrs,"
+    says dfu "hil: ok: SELFTEST over USB: \$PINAR,OK,SELFTEST,WARN,10100,8000,"
+    says dfu "hil: all checks passed (DFU route)"
+    [ "$(cat "$FAKE_DFU_LOG")" = "-l
+-a 0 -s 0x08003000 -D $image
+-a 0 -s 0x08003000:$size -U $(sed -n 's/^-a 0 -s 0x08003000:[0-9]* -U //p' "$FAKE_DFU_LOG")
+-a 0 -s 0x08003000:leave -D $image" ] || fail "dfu: dfu-util was called with '$(cat "$FAKE_DFU_LOG")'"
+    probe_calls dfu ""
+    run dfu-readback 1 env PATH="$t/dfubin:$PATH" FAKE_LAYOUT="$good" FAKE_CORRUPT=1 "$hil" --dfu --port "$pty"
+    says dfu-readback "hil: FAILED: the read-back differs from the image"
+    says dfu-readback "hil: 1 check(s) failed"
   else
     fail "the emulator gave no pseudo-terminal: $(cat "$t/emu.out")"
   fi
@@ -135,6 +194,26 @@ run --chip STM32F103RE $suite"
 else
   fail "cargo build -p ahrs-tool"
 fi
+
+# The DFU route's refusals: no port; no dfu-util; no device; a layout that would put the image
+# anywhere but 0x08003000 (nothing written: the listing is the only call).
+run dfu-no-port 3 env PATH="$t/dfubin:$PATH" FAKE_LAYOUT="/0x08000000/06*002Ka,250*002Kg" "$hil" --dfu
+says dfu-no-port "hil: not run: no serial port given for the DFU route"
+if command -v dfu-util >/dev/null 2>&1; then
+  echo "hil test: the case without dfu-util skipped: a real one is installed ($(command -v dfu-util))"
+else
+  run dfu-not-installed 3 "$hil" --dfu --port /dev/null
+  says dfu-not-installed "hil: not run: dfu-util is not installed"
+fi
+run dfu-no-device 3 env PATH="$t/dfubin:$PATH" FAKE_LAYOUT="" "$hil" --dfu --port /dev/null
+says dfu-no-device "hil: not run: no DFU device (hold KEY"
+[ "$(cat "$FAKE_DFU_LOG")" = "-l" ] || fail "dfu-no-device: dfu-util called with '$(cat "$FAKE_DFU_LOG")'"
+for layout in "/0x08000000/256*002Kg" "/0x08000000/04*002Ka,252*002Kg" "/0x08000000/06*002Ka,250*002Ka" "/08000000/junk"; do
+  run dfu-layout 1 env PATH="$t/dfubin:$PATH" FAKE_LAYOUT="$layout" "$hil" --dfu --port /dev/null
+  says dfu-layout "hil: FAILED: DFU layout '$layout' (alt 0) is not writable from 0x08003000 exactly"
+  [ "$(cat "$FAKE_DFU_LOG")" = "-l" ] || fail "dfu-layout $layout: dfu-util called with '$(cat "$FAKE_DFU_LOG")'"
+done
+probe_calls dfu-layout ""
 
 if [ "$failures" -gt 0 ]; then
   echo "hil test: $failures failure(s)" >&2
