@@ -506,4 +506,104 @@ mod tests {
         let (blocks, rest) = run(Vec3::ZERO, 10.0);
         assert!(blocks >= 4 && rest >= 3, "{blocks} {rest}");
     }
+
+    /// A still block at `hz` samples per second (the exact noise-free board): the block.
+    fn one_block(
+        d: &mut RestDetector,
+        hz: f32,
+        noise: &NoiseSettings,
+        gyro_gap: bool,
+    ) -> RestBlock {
+        let dt = 1.0 / hz;
+        for k in 0.. {
+            let w = if gyro_gap && k == 3 { None } else { Some(Vec3::ZERO) };
+            if let Some(b) = d.push(dt, w, Some(Vec3::new(0.0, 0.0, -1.0)), noise) {
+                return b;
+            }
+        }
+        unreachable!()
+    }
+
+    /// The variance of a block's mean from the configured noise follows the sample rate
+    /// (constant density): at `r` Hz against the noise's reference rate `r₀`, a sample's
+    /// variance is `σ²·r/r₀`, and the mean of `n` samples has `σ²·r/(r₀·n)` — by hand for a
+    /// 2 s block at 200 Hz (n = 400, four times the reference's per-sample variance): σ²/100.
+    #[test]
+    fn the_mean_variance_follows_the_sample_rate() {
+        let noise = NoiseSettings::default();
+        let mut d = RestDetector::new(RestSettings::default());
+        let b = one_block(&mut d, 200.0, &noise, false);
+        assert!(b.n == 400 || b.n == 401, "{}", b.n);
+        let rate = b.n as f32 / (b.n as f32 / 200.0);
+        let want = noise.gyro_var * (rate / noise.gyro_ref_rate_hz) * (1.0 / b.n as f32);
+        for (got, want) in b.mean_var.to_array().iter().zip(want.to_array()) {
+            assert!((got - want).abs() <= 1e-6 * want, "{got} vs {want}");
+        }
+        assert!((b.mean_var.x - noise.gyro_var.x / 100.0).abs() < 0.01 * noise.gyro_var.x / 100.0);
+    }
+
+    /// One invalid gyro sample in an otherwise perfectly still block breaks it: not still, and
+    /// the rest count starts again; a reset forgets the count and the block under way.
+    #[test]
+    fn an_invalid_sample_breaks_the_block_and_a_reset_forgets_rest() {
+        let noise = NoiseSettings::default();
+        let mut d = RestDetector::new(RestSettings::default());
+        assert!(one_block(&mut d, 50.0, &noise, false).still);
+        let b = one_block(&mut d, 50.0, &noise, false);
+        assert!(b.still && b.at_rest && d.at_rest());
+        let broken = one_block(&mut d, 50.0, &noise, true);
+        assert!(!broken.still && !broken.at_rest && !d.at_rest());
+        // Rest again after two still blocks; then a reset in the middle of a block.
+        one_block(&mut d, 50.0, &noise, false);
+        assert!(one_block(&mut d, 50.0, &noise, false).at_rest);
+        for _ in 0..30 {
+            d.push(0.02, Some(Vec3::ZERO), Some(Vec3::new(0.0, 0.0, -1.0)), &noise);
+        }
+        d.reset();
+        assert!(!d.at_rest());
+        // The next block is a whole one (100 samples, not the 70 left) and the first still one.
+        let b = one_block(&mut d, 50.0, &noise, false);
+        assert!(b.n >= 100 && b.still && !b.at_rest, "{} {} {}", b.n, b.still, b.at_rest);
+    }
+
+    /// Motion ends rest at once: after rest is declared, one moving block (a 2 °/s turn) clears
+    /// it, and rest needs two still blocks again.
+    #[test]
+    fn a_moving_block_ends_rest() {
+        let noise = NoiseSettings::default();
+        let mut d = RestDetector::new(RestSettings::default());
+        one_block(&mut d, 50.0, &noise, false);
+        assert!(one_block(&mut d, 50.0, &noise, false).at_rest);
+        let mut moved = None;
+        while moved.is_none() {
+            moved = d.push(
+                0.02,
+                Some(Vec3::new(0.0, 0.0, deg(2.0))),
+                Some(Vec3::new(0.0, 0.0, -1.0)),
+                &noise,
+            );
+        }
+        let moved = moved.unwrap();
+        assert!(!moved.still && !moved.at_rest && !d.at_rest());
+        assert!(!one_block(&mut d, 50.0, &noise, false).at_rest);
+        assert!(one_block(&mut d, 50.0, &noise, false).at_rest);
+    }
+
+    /// The segment spread's sample variance, by hand: means 1, 2, 3, 4 give Σ = 10, Σ² = 30,
+    /// (30 − 10²/4)/3 = 5/3; fewer than two segments give 0; a spread is never negative.
+    #[test]
+    fn the_segment_variance_is_the_sample_variance() {
+        let mut s = SegmentSpread::default();
+        for (k, m) in [1.0f32, 2.0, 3.0, 4.0].iter().enumerate() {
+            let now = [(m * 1024.0) as i64, (-m * 1024.0) as i64, 0];
+            s.add(&now, &[0, 0, 0], 1.0 / 1024.0);
+            let v = s.variance(k as u32 + 1);
+            if k == 0 {
+                assert_eq!(v, [0.0; 3]);
+            }
+        }
+        let v = s.variance(4);
+        assert!((v[0] - 5.0 / 3.0).abs() < 1e-6 && (v[1] - 5.0 / 3.0).abs() < 1e-6, "{v:?}");
+        assert_eq!(v[2], 0.0);
+    }
 }

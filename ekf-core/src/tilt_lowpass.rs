@@ -335,10 +335,36 @@ mod tests {
             }
         }
         lp.y = [[0.01, 0.0], [0.0, 0.02]];
+        let j = lp.j;
         let q = core::f32::consts::FRAC_PI_2;
         lp.turn(q.cos(), q.sin());
         let y = lp.states();
         assert!((y[0][1] - 0.01).abs() < 1e-7 && y[0][0].abs() < 1e-7, "{y:?}");
         assert!((y[1][0] + 0.02).abs() < 1e-7 && y[1][1].abs() < 1e-7, "{y:?}");
+        // The bias sensitivities are NED vectors too: they turn with the frame (x ← −y, y ← x).
+        assert!(j[1][0].iter().any(|v| v.abs() > 1e-3), "{j:?}");
+        for st in 0..2 {
+            for i in 0..3 {
+                assert!((lp.j[st][0][i] + j[st][1][i]).abs() < 1e-7, "{st},{i}: {:?}", lp.j);
+                assert!((lp.j[st][1][i] - j[st][0][i]).abs() < 1e-7, "{st},{i}: {:?}", lp.j);
+            }
+        }
+    }
+
+    /// τ = 0 (`ekf.accel_time_constant = 0`, and the rule's raw samples): no low-pass, the
+    /// measurement is the sample itself with weight 1 and no delay, whatever came before.
+    #[test]
+    fn without_a_time_constant_the_sample_is_the_measurement() {
+        let mut lp = TiltLowPass::new();
+        lp.set_rate(0.02, 1.0);
+        for _ in 0..50 {
+            lp.propagate(&[[0.02, 0.0, 0.0], [0.0, 0.02, 0.0], [0.0, 0.0, 0.02]]);
+            lp.push([0.003, 0.001]);
+        }
+        lp.set_rate(0.02, 0.0);
+        lp.push([0.002, -0.004]);
+        let (z, h) = lp.measurement([0.0; 3]);
+        assert_eq!(z, [0.004, 0.002]);
+        assert_eq!((h.w, h.j, h.raw), (1.0, [[0.0; 3]; 2], true));
     }
 }

@@ -1104,6 +1104,10 @@ mod tests {
             [Some(false), Some(true), Some(true)]
         );
         assert_eq!(rows.iter().map(TraceRow::scored).collect::<Vec<_>>(), [false, false, true]);
+        // An empty cell says nothing of the phase: the row is scored like one without the
+        // column (not read as 0, the rest phase, which would drop it from the score).
+        let rows = read(&format!("{h}0,0,0,0,0,0,-9.8,1,0,0,0,\n")).unwrap();
+        assert_eq!((rows[0].movement, rows[0].scored()), (None, true));
         // Without the column every row with truth is scored.
         let rows = read("t,gx,gy,gz,ax,ay,az,qw,qx,qy,qz\n0,0,0,0,0,0,-9.8,1,0,0,0\n").unwrap();
         assert!(rows[0].scored() && rows[0].movement.is_none());

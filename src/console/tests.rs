@@ -365,4 +365,32 @@ fn reply_queues_drop_per_port() {
     replies.push(sentence("PINAR,OK,Y"), Route::Usart);
     assert_eq!(replies.waiting(Port::Usart), 1);
     assert_eq!(replies.dropped(), 1);
+    // Both ports' drops count: two more for USART2, one fits.
+    replies.push(sentence("PINAR,OK,Z"), Route::Usart);
+    replies.push(sentence("PINAR,OK,W"), Route::Usart);
+    assert_eq!((replies.usb_dropped, replies.usart_dropped), (1, 1));
+    assert_eq!(replies.dropped(), 2);
+}
+
+/// The queue's state as the USB task and the 10-s log read it, and its exact fit: a part of
+/// exactly the free room is queued whole, one byte more is refused (issue #39 point 5: these
+/// accessors returning a constant, and `>` as `>=` in `offer`, passed every test before).
+#[test]
+fn the_queue_reports_its_state_and_takes_an_exact_fit() {
+    let mut usb = UsbOut::<8>::new();
+    assert!(!usb.is_open() && !usb.dtr() && usb.is_empty() && usb.free() == 8);
+    usb.set_host(true, false);
+    assert!(usb.is_open() && !usb.dtr());
+    usb.set_host(true, true);
+    assert!(usb.is_open() && usb.dtr());
+    assert_eq!(usb.offer(b"abc"), Offer::Queued);
+    assert!(!usb.is_empty() && usb.len() == 3 && usb.free() == 5);
+    assert_eq!(usb.offer(b"defghi"), Offer::Full, "one byte more than the room");
+    assert_eq!(usb.offer(b"defgh"), Offer::Queued, "exactly the room");
+    assert!(usb.free() == 0 && usb.len() == 8);
+    assert_eq!(read_all(&mut usb), "abcdefgh");
+    assert!(usb.is_empty());
+    // Unplugged with DTR still up: neither open nor DTR.
+    usb.set_host(false, true);
+    assert!(!usb.is_open() && !usb.dtr());
 }

@@ -155,6 +155,21 @@ fn one_byte_masks_addr_clear_and_stop() {
     assert_eq!(steps, want);
 }
 
+/// No byte (an address probe): ADDR cleared and STOP at once, then the wait for the STOP to
+/// go out — a read that sent no STOP would leave the bus held (issue #39 point 5: passed
+/// before).
+#[test]
+fn no_byte_clears_addr_and_stops() {
+    let (buf, steps) = read_log(&[]);
+    assert!(buf.is_empty());
+    let want = [
+        u(&[Start, Wait(Flag::Sb), Pos(false), Ack(true), Write(AR), Wait(Flag::Addr)]),
+        u(&[ClearAddr, Stop, WaitStop, Pos(false), Ack(true)]),
+    ]
+    .concat();
+    assert_eq!(steps, want);
+}
+
 /// Two bytes: POS on (ACK on since the address); masked: ADDR cleared and ACK off
 /// (EV6_1); after BTF masked: STOP and the first byte; then the second.
 #[test]
