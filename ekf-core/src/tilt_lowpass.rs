@@ -351,6 +351,26 @@ mod tests {
         }
     }
 
+    /// A reset empties the states (a restart of the estimator: no sample, no weight, no
+    /// delay) and keeps the coefficients: the next sample fills it as the first one did.
+    #[test]
+    fn a_reset_empties_the_filter_and_keeps_its_time_constant() {
+        let a: Mat3 = [[0.02, 0.0, 0.0], [0.0, 0.02, 0.0], [0.0, 0.0, 0.02]];
+        let mut lp = TiltLowPass::new();
+        lp.set_rate(0.02, 1.0);
+        let mut fresh = lp;
+        for _ in 0..100 {
+            lp.propagate(&a);
+            lp.push([0.01, -0.02]);
+        }
+        assert!(lp.w[1] > 0.5 && lp.y[1][0] != 0.0 && lp.j[1][0][0] != 0.0);
+        lp.reset();
+        assert_eq!(lp, fresh);
+        lp.push([0.01, -0.02]);
+        fresh.push([0.01, -0.02]);
+        assert_eq!(lp, fresh);
+    }
+
     /// τ = 0 (`ekf.accel_time_constant = 0`, and the rule's raw samples): no low-pass, the
     /// measurement is the sample itself with weight 1 and no delay, whatever came before.
     #[test]

@@ -328,11 +328,8 @@ impl Device {
     /// Execute one received line (`$PINAC,...*hh`, with or without the line end). Lines of
     /// other talkers get no reply. `flash` is used by `SAVE` and `LOAD` only.
     pub fn execute<F: Flash>(&mut self, line: &[u8], flash: &mut F) -> Response {
-        let line = line
-            .strip_suffix(b"\r\n")
-            .or_else(|| line.strip_suffix(b"\n"))
-            .or_else(|| line.strip_suffix(b"\r"))
-            .unwrap_or(line);
+        // One line end at most, which `nmea::verify` takes off (until issue #39 this stripped
+        // one too, so a line ending in two was accepted).
         let ours = line.starts_with(b"$PINAC") && matches!(line.get(6), Some(b',' | b'*'));
         if !ours {
             return Response::default();
