@@ -620,13 +620,17 @@ fn calibrate(port: &str, seconds: f64) -> Result<(), String> {
     }
     let cal = fit.solve().map_err(|e| format!("fit failed: {e}"))?;
     let rms = fit.rms_residual_g(&cal).unwrap_or(f32::NAN);
-    // X row by row (`accel_cal.x`, `.y`, `.z`: dimensionless; `.o`: the offset, g).
-    for (row, name) in cal.x.iter().zip(["x", "y", "z", "o"]) {
-        expect_ok(
-            &mut link,
-            &format!("SET,accel_cal.{name},{:e},{:e},{:e}", row[0], row[1], row[2]),
-        )?;
-    }
+    // X row by row (`accel_cal.x`, `.y`, `.z`: dimensionless; `.o`: the offset, g), all four
+    // or none: a refused or lost `SET` puts back those already set.
+    let rows: Vec<(String, String)> = cal
+        .x
+        .iter()
+        .zip(["x", "y", "z", "o"])
+        .map(|(row, name)| {
+            (format!("accel_cal.{name}"), format!("{:e},{:e},{:e}", row[0], row[1], row[2]))
+        })
+        .collect();
+    settings_cmd::set_all(&mut link, &rows).map_err(|(_, e)| e)?;
     println!("Fit done: rms residual {rms} g (accel_cal.* set, not saved).");
     let answer = ask(&mut input, "Save to flash? [y/N] ").unwrap_or_default();
     if answer.eq_ignore_ascii_case("y") || answer.eq_ignore_ascii_case("yes") {

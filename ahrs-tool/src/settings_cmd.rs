@@ -131,16 +131,60 @@ pub fn get(port: &str, out: &Path) -> Result<(), String> {
     Ok(())
 }
 
+/// Sets each `(name, fields)` (`fields` as `SET` takes them: `0.1`, `x,y,-z`) in order, after
+/// reading what each held (`GET`); when one is refused or gets no reply, those already set are
+/// put back, the latest first, before the error returns (issue #39 point 1: a tool that
+/// changed the device puts it back). The error is `(index of the failed change, message)`,
+/// the message saying what was put back, or what could not be.
+pub fn set_all(link: &mut Link, changes: &[(String, String)]) -> Result<(), (usize, String)> {
+    let mut before = Vec::with_capacity(changes.len());
+    for (k, (name, _)) in changes.iter().enumerate() {
+        let g = ok_reply(link, &format!("GET,{name}")).map_err(|e| (k, e))?;
+        if g.fields.len() < 2 {
+            return Err((k, format!("unexpected reply {}", g.line)));
+        }
+        before.push(g.fields[1..].join(","));
+    }
+    for (k, (name, fields)) in changes.iter().enumerate() {
+        if let Err(e) = ok_reply(link, &format!("SET,{name},{fields}")) {
+            let mut failed = Vec::new();
+            for j in (0..k).rev() {
+                let (name, old) = (&changes[j].0, &before[j]);
+                if ok_reply(link, &format!("SET,{name},{old}")).is_err() {
+                    failed.push(format!("{name}={old}"));
+                }
+            }
+            let undo = match (k, failed.is_empty()) {
+                (0, _) => "nothing was changed".to_string(),
+                (n, true) => format!("the {n} setting(s) set before it were put back"),
+                (_, false) => format!(
+                    "putting back {} failed: the device may hold a mix of old and new values",
+                    failed.join(", ")
+                ),
+            };
+            return Err((k, format!("{e}; {undo}")));
+        }
+    }
+    Ok(())
+}
+
 /// `settings put <port> FILE [--save]`: every line checked here first (nothing is sent if one
-/// is refused), then one `SET` each.
+/// is refused), then one `SET` each ([`set_all`]: put back if one fails).
 pub fn put(port: &str, file: &Path, save: bool) -> Result<(), String> {
     let lines = read_settings_file(file)?;
     let mut link = Link::open(port)?;
-    for (line, a) in &lines {
-        let text = host_tests::settings::format_assignment(a.setting, &a.value);
-        let body = format!("SET,{}", text.replacen('=', ",", 1));
-        ok_reply(&mut link, &body).map_err(|e| format!("{} line {line}: {e}", file.display()))?;
-    }
+    let changes: Vec<(String, String)> = lines
+        .iter()
+        .map(|(_, a)| {
+            let text = host_tests::settings::format_assignment(a.setting, &a.value);
+            let (name, value) = text.split_once('=').unwrap_or((&text, ""));
+            (name.to_string(), value.to_string())
+        })
+        .collect();
+    set_all(&mut link, &changes).map_err(|(k, e)| {
+        let line = lines.get(k).map_or(0, |l| l.0);
+        format!("{} line {line}: {e}", file.display())
+    })?;
     let saved = if save {
         let r = ok_reply(&mut link, "SAVE")?;
         format!("; saved ({})", r.line)
