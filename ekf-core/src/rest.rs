@@ -589,6 +589,26 @@ mod tests {
         assert!(one_block(&mut d, 50.0, &noise, false).at_rest);
     }
 
+    /// At 2.5 Hz a sample is 0.4 s after the last, longer than a segment (0.25 s): each
+    /// sample closes one segment (the segment ends fall behind, never a segment without a
+    /// sample: `close_segment`'s `n > 0` always holds), and a still board is at rest.
+    #[test]
+    fn a_rate_slower_than_the_segments_still_finds_rest() {
+        let noise = NoiseSettings::default();
+        let mut d = RestDetector::new(RestSettings::default());
+        let (mut blocks, mut last) = (0, None);
+        for _ in 0..40 {
+            if let Some(b) = d.push(0.4, Some(Vec3::ZERO), Some(Vec3::new(0.0, 0.0, -1.0)), &noise)
+            {
+                assert!(b.still, "{b:?}");
+                blocks += 1;
+                last = Some(b);
+            }
+        }
+        assert!(blocks >= 5, "{blocks}");
+        assert!(last.is_some_and(|b| b.at_rest));
+    }
+
     /// The segment spread's sample variance, by hand: means 1, 2, 3, 4 give Σ = 10, Σ² = 30,
     /// (30 − 10²/4)/3 = 5/3; fewer than two segments give 0; a spread is never negative.
     #[test]
@@ -600,6 +620,10 @@ mod tests {
             let v = s.variance(k as u32 + 1);
             if k == 0 {
                 assert_eq!(v, [0.0; 3]);
+            }
+            if k == 1 {
+                // Two means, 1 and 2: (5 − 9/2)/1 = 1/2.
+                assert!((v[0] - 0.5).abs() < 1e-6, "{v:?}");
             }
         }
         let v = s.variance(4);
