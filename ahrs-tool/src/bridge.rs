@@ -7,11 +7,20 @@
 //! sends go to the device: a sentence (`$...*hh`) as it is, a sentence without checksum with
 //! its checksum added, and anything else as a command body (`VER`, `SENT,HDT,1`) wrapped as
 //! `$PINAC,<body>*hh`, as `ahrs-tool send` does; the replies come back on the same stream.
+//!
+//! No client can stall the others or the device (issue #38 point 3): each TCP client has its
+//! own writer thread and a queue of [`CLIENT_QUEUE`] lines. The serial reader only offers each
+//! line to the queues and never waits; a client whose queue is full (it has not read for that
+//! many lines, its socket buffers full) is dropped: its socket is shut down, which ends its
+//! reader too, and stderr names it. A client that goes away is removed the same way.
 
 use std::{
     io::{BufRead, BufReader, Read, Write},
-    net::{SocketAddr, TcpListener, TcpStream, ToSocketAddrs, UdpSocket},
-    sync::{Arc, Mutex},
+    net::{Shutdown, SocketAddr, TcpListener, TcpStream, ToSocketAddrs, UdpSocket},
+    sync::{
+        mpsc::{sync_channel, SyncSender, TrySendError},
+        Arc, Mutex,
+    },
     thread,
     time::{Duration, Instant},
 };
@@ -23,8 +32,11 @@ use crate::link::{command_line, Link};
 
 /// The usual NMEA 0183 network port.
 pub const NMEA_PORT: u16 = 10110;
-/// A TCP client that cannot take a line within this time is dropped.
+/// A TCP client whose socket takes nothing for this long is dropped (its writer gives up).
 const CLIENT_WRITE_TIMEOUT: Duration = Duration::from_secs(2);
+/// Lines waiting for one TCP client: about 5 s of the device's default output (10 Hz, two
+/// sentences a cycle), beyond what its socket buffers hold. Full: the client is dropped.
+pub const CLIENT_QUEUE: usize = 100;
 /// Longest line taken from a TCP client, bytes (a sentence is at most 82).
 const MAX_CLIENT_LINE: usize = 256;
 
@@ -60,7 +72,15 @@ pub fn to_device(line: &str) -> Option<String> {
     })
 }
 
-type Clients = Arc<Mutex<Vec<TcpStream>>>;
+/// One TCP client as the serial reader sees it: the queue to its writer, and the socket, to
+/// shut it down.
+struct Client {
+    peer: String,
+    queue: SyncSender<Arc<[u8]>>,
+    socket: TcpStream,
+}
+
+type Clients = Arc<Mutex<Vec<Client>>>;
 type Serial = Arc<Mutex<Box<dyn SerialPort>>>;
 
 /// One TCP client: its lines to the device until it hangs up.
@@ -86,18 +106,58 @@ fn serve_client(stream: TcpStream, serial: Serial) {
     eprintln!("bridge: TCP client {peer} left");
 }
 
-/// Accept TCP clients: each gets the stream and its own thread for what it sends.
+/// One TCP client's writer: the lines of its queue to its socket, until the queue closes or a
+/// write fails (then the socket is shut down, which ends the client's reader as well).
+fn write_client(mut stream: TcpStream, lines: std::sync::mpsc::Receiver<Arc<[u8]>>, peer: String) {
+    for line in lines {
+        if let Err(e) = stream.write_all(&line) {
+            eprintln!("bridge: TCP client {peer} dropped: {e}");
+            let _ = stream.shutdown(Shutdown::Both);
+            return;
+        }
+    }
+}
+
+/// Accept TCP clients: each gets its queue, a writer thread and a reader thread.
 fn accept(listener: TcpListener, clients: Clients, serial: Serial) {
     for stream in listener.incoming().flatten() {
         let peer = stream.peer_addr().map(|a| a.to_string()).unwrap_or_default();
-        let Ok(reader) = stream.try_clone() else { continue };
+        let (Ok(reader), Ok(writer)) = (stream.try_clone(), stream.try_clone()) else { continue };
         let _ = stream.set_write_timeout(Some(CLIENT_WRITE_TIMEOUT));
         let _ = stream.set_nodelay(true);
         eprintln!("bridge: TCP client {peer}");
-        clients.lock().unwrap_or_else(|e| e.into_inner()).push(stream);
+        let (queue, lines) = sync_channel(CLIENT_QUEUE);
+        let p = peer.clone();
+        thread::spawn(move || write_client(writer, lines, p));
+        clients.lock().unwrap_or_else(|e| e.into_inner()).push(Client {
+            peer,
+            queue,
+            socket: stream,
+        });
         let serial = Arc::clone(&serial);
         thread::spawn(move || serve_client(reader, serial));
     }
+}
+
+/// Offers `line` to every client's queue without waiting: a client whose queue is full is
+/// dropped (its socket shut down, its name on stderr), one whose writer has ended removed.
+/// Returns how many were dropped for a full queue.
+fn offer(clients: &mut Vec<Client>, line: &Arc<[u8]>) -> usize {
+    let mut dropped = 0;
+    clients.retain(|c| match c.queue.try_send(Arc::clone(line)) {
+        Ok(()) => true,
+        Err(TrySendError::Full(_)) => {
+            eprintln!(
+                "bridge: TCP client {} dropped: it has not read its last {CLIENT_QUEUE} lines",
+                c.peer
+            );
+            let _ = c.socket.shutdown(Shutdown::Both);
+            dropped += 1;
+            false
+        }
+        Err(TrySendError::Disconnected(_)) => false,
+    });
+    dropped
 }
 
 /// Run the bridge until `stop` says so (Ctrl-C, or the end of `seconds`).
@@ -137,23 +197,25 @@ pub fn run(
         thread::spawn(move || accept(listener, c, s));
     }
     let end = seconds.map(|s| Instant::now() + Duration::from_secs_f64(s.clamp(0.0, 1e6)));
-    let (mut sent, mut udp_errors) = (0u64, 0u64);
+    let (mut sent, mut udp_errors, mut slow) = (0u64, 0u64, 0usize);
     while !stop() && end.is_none_or(|e| Instant::now() < e) {
         let deadline = Instant::now() + Duration::from_millis(200);
         let Some((_, line)) = link.next_sentence(deadline).map_err(|e| e.to_string())? else {
             continue;
         };
-        let bytes = format!("{line}\r\n");
+        let bytes: Arc<[u8]> = format!("{line}\r\n").into_bytes().into();
         if let Some((sock, target)) = &udp {
-            if sock.send_to(bytes.as_bytes(), target).is_err() {
+            if sock.send_to(&bytes, target).is_err() {
                 udp_errors += 1;
             }
         }
-        let mut list = clients.lock().unwrap_or_else(|e| e.into_inner());
-        list.retain_mut(|c| c.write_all(bytes.as_bytes()).is_ok());
+        slow += offer(&mut clients.lock().unwrap_or_else(|e| e.into_inner()), &bytes);
         sent += 1;
     }
-    eprintln!("bridge: {sent} sentences forwarded, {udp_errors} UDP send errors");
+    eprintln!(
+        "bridge: {sent} sentences forwarded, {udp_errors} UDP send errors, {slow} TCP clients \
+         dropped for not reading"
+    );
     Ok(())
 }
 
@@ -169,6 +231,79 @@ mod tests {
         // A wrong checksum goes as typed: the device answers ERR,?,checksum.
         assert_eq!(to_device("$PINAC,VER*00").as_deref(), Some("$PINAC,VER*00\r\n"));
         assert_eq!(to_device(" \r\n"), None);
+    }
+
+    /// Issue #38 point 3: three clients that never read and one that does, against the real
+    /// accept loop, writer threads and [`offer`], the lines offered as fast as the loop can (1 KB
+    /// each, so the silent clients' socket buffers fill within a second). The offering never
+    /// waits (no call over 50 ms), the reading client gets every line without a gap over
+    /// 0.2 s, and the three silent ones are dropped and see their connection closed.
+    #[test]
+    fn clients_that_do_not_read_are_dropped_and_stall_nobody() {
+        let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+        let addr = listener.local_addr().unwrap();
+        let clients: Clients = Arc::new(Mutex::new(Vec::new()));
+        let (c, serial) = (Arc::clone(&clients), Arc::new(Mutex::new(null_port())));
+        thread::spawn(move || accept(listener, c, serial));
+        let silent: Vec<TcpStream> = (0..3).map(|_| TcpStream::connect(addr).unwrap()).collect();
+        let reader = TcpStream::connect(addr).unwrap();
+        while clients.lock().unwrap().len() < 4 {
+            thread::sleep(Duration::from_millis(5));
+        }
+        let line: Arc<[u8]> = [b"$PINAH,".as_slice(), &[b'0'; 1017], b"\n"].concat().into();
+        let got = thread::spawn(move || {
+            let (mut r, mut buf, mut n, mut worst, mut last) =
+                (reader, vec![0u8; 65536], 0usize, Duration::ZERO, Instant::now());
+            let end = Instant::now() + Duration::from_secs(4);
+            while Instant::now() < end {
+                r.set_read_timeout(Some(Duration::from_millis(500))).unwrap();
+                match r.read(&mut buf) {
+                    Ok(0) | Err(_) => break,
+                    Ok(k) => {
+                        n += buf[..k].iter().filter(|&&b| b == b'\n').count();
+                        worst = worst.max(last.elapsed());
+                        last = Instant::now();
+                    }
+                }
+            }
+            (n, worst)
+        });
+        let (mut dropped, mut slowest, mut offered) = (0, Duration::ZERO, 0usize);
+        let end = Instant::now() + Duration::from_secs(3);
+        while Instant::now() < end {
+            let t = Instant::now();
+            dropped += offer(&mut clients.lock().unwrap(), &line);
+            slowest = slowest.max(t.elapsed());
+            offered += 1;
+            // About 2 MB/s: faster than the silent sockets' buffers take, slower than loopback.
+            thread::sleep(Duration::from_micros(500));
+        }
+        let (received, worst_gap) = got.join().unwrap();
+        assert_eq!(dropped, 3, "{offered} lines offered");
+        assert_eq!(clients.lock().unwrap().len(), 1);
+        assert!(slowest < Duration::from_millis(50), "an offer took {slowest:?}");
+        assert!(received >= offered - CLIENT_QUEUE, "{received} of {offered}");
+        assert!(worst_gap < Duration::from_millis(200), "gap {worst_gap:?}");
+        // The dropped ones were shut down: after what was buffered, their reads end.
+        for mut s in silent {
+            s.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
+            let mut sink = vec![0u8; 1 << 20];
+            let closed = loop {
+                match s.read(&mut sink) {
+                    Ok(0) => break true,
+                    Ok(_) => continue,
+                    Err(e) if e.kind() == std::io::ErrorKind::ConnectionReset => break true,
+                    Err(_) => break false,
+                }
+            };
+            assert!(closed, "a dropped client's connection is still open");
+        }
+    }
+
+    /// A serial port that takes every byte (the clients here send nothing).
+    fn null_port() -> Box<dyn SerialPort> {
+        let (master, _slave) = serialport::TTYPort::pair().unwrap();
+        Box::new(master)
     }
 
     #[test]
