@@ -20,7 +20,7 @@ use nix::fcntl::{fcntl, FcntlArg, OFlag};
 use serialport::{SerialPort, TTYPort};
 
 use inemo_ahrs::{
-    adc::AdcMean,
+    adc::{at_rail, AdcMean, Rails},
     board,
     command::{Action, Device, LineAssembler, LineEvent},
     persist::{self, SimFlash, Source},
@@ -135,7 +135,19 @@ impl Board {
         let s = PipelineSettings::default();
         let sample = self.next_sample();
         let row = sample.row;
-        let counts = |volts: f32| volts / s.adc.vref_v * s.adc.full_scale_counts;
+        // A 12-bit conversion: the volts as counts, saturated at 0 and full scale as the ADC
+        // saturates (issue #38 point 7: `--depth 5000` gave counts past full scale, read as a
+        // valid depth), and whether the count is at a rail (`adc::at_rail`, as the averager
+        // flags it on the board).
+        let fs = s.adc.full_scale_counts;
+        let mut rails = Rails::NONE;
+        let mut counts_on = |volts: f32, channel: Rails| {
+            let c = (volts / s.adc.vref_v * fs).clamp(0.0, fs);
+            if at_rail(c.round() as u16) {
+                rails = rails.union(channel);
+            }
+            c
+        };
         let mut gyro = Vec3::from_array(row.gyro);
         let accel_g = match self.pose {
             Some(p) => {
@@ -158,19 +170,19 @@ impl Board {
         };
         let g = board::GYRO_AXES.inverse().apply(gyro);
         let sens = s.gyro.sensitivity_v_per_dps;
-        let zero = counts(GYRO_ZERO_V);
         let d = &s.depth;
         let p = d.surface_pressure_pa + d.water_density_kg_m3 * d.gravity_m_s2 * self.depth_m;
-        let adc = AdcMean {
-            gyro_x: counts(GYRO_ZERO_V + g.x.to_degrees() * sens[0]),
-            gyro_y: counts(GYRO_ZERO_V + g.y.to_degrees() * sens[1]),
-            gyro_xy_ref: zero,
-            gyro_z: counts(GYRO_ZERO_V + g.z.to_degrees() * sens[2]),
-            gyro_z_ref: zero,
-            depth: counts((p - d.offset_pa) / d.pa_per_volt),
+        let mut adc = AdcMean {
+            gyro_x: counts_on(GYRO_ZERO_V + g.x.to_degrees() * sens[0], Rails::GYRO_X),
+            gyro_y: counts_on(GYRO_ZERO_V + g.y.to_degrees() * sens[1], Rails::GYRO_Y),
+            gyro_xy_ref: counts_on(GYRO_ZERO_V, Rails::GYRO_XY_REF),
+            gyro_z: counts_on(GYRO_ZERO_V + g.z.to_degrees() * sens[2], Rails::GYRO_Z),
+            gyro_z_ref: counts_on(GYRO_ZERO_V, Rails::GYRO_Z_REF),
+            depth: counts_on((p - d.offset_pa) / d.pa_per_volt, Rails::DEPTH),
             samples: 20,
             ..AdcMean::default()
         };
+        adc.rails = rails;
         // LSM303DLH at ±2 g, 1 mg per LSB.
         let lsb = |x: f32| (x * 1000.0).round().clamp(-2048.0, 2047.0) * 1e-3;
         Inputs {

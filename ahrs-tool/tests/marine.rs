@@ -126,3 +126,30 @@ fn nothing_invalid_or_relative_reaches_signal_k_as_valid_and_yaw_makes_the_headi
     // Within a few tenths of a second of the scenario's turn (at most 9.4 °/s) of 123.4°.
     assert!(angle_diff(headings[0], 123.4).abs() < 5.0, "{headings:?}");
 }
+
+/// Issue #38 point 7: a depth beyond the sensor's range is flagged as the board flags it. The
+/// emulator's ADC counts saturate at full scale, the depth channel is then at its rail (status
+/// bit 19), and neither `XDR` nor `$PINAH` gives a depth; within the range both give the same.
+#[test]
+fn a_depth_beyond_the_sensor_is_flagged_in_both_sentences() {
+    for (depth, in_range) in [("5000", false), ("25", true)] {
+        let emu = Emulator::start(&["--depth", depth]);
+        emu.send("SENT,XDR,1");
+        let lines = emu.capture(2.0);
+        let pinah: Vec<&String> = lines.iter().filter(|l| l.starts_with("$PINAH,")).collect();
+        let xdr: Vec<&String> = lines.iter().filter(|l| l.contains("XDR,")).collect();
+        assert!(pinah.len() > 5 && !xdr.is_empty(), "{lines:?}");
+        for p in &pinah {
+            let f: Vec<&str> = p.split('*').next().unwrap().split(',').collect();
+            let status = u32::from_str_radix(f[9], 16).unwrap();
+            assert_eq!(status & (1 << 19) != 0, !in_range, "{depth} m: {p}");
+            assert_eq!(f[8].is_empty(), !in_range, "{depth} m: {p}");
+            if in_range {
+                assert!((f[8].parse::<f64>().unwrap() - 25.0).abs() < 0.2, "{p}");
+            }
+        }
+        for x in &xdr {
+            assert_eq!(x.contains("DEPTH"), in_range, "{depth} m: {x}");
+        }
+    }
+}

@@ -23,9 +23,9 @@ use super::sentence::Sentence;
 
 /// Decimals of headings, variation, rate of turn, pitch, roll and depth.
 const DECIMALS: u8 = 1;
-/// Printed depth range in units of 0.1 m: −99.9 m to 9999.9 m.
-const DEPTH_MIN_SCALED: i64 = -999;
-const DEPTH_MAX_SCALED: i64 = 99_999;
+/// Printed depth range in units of 0.1 m: `$PINAH`'s, −9.9 m to 999.9 m, so that the two
+/// sentences give a depth or neither (until issue #38, −99.9 to 9999.9 m here).
+use super::pinah::{DEPTH_MAX_SCALED, DEPTH_MIN_SCALED};
 /// Printed rate-of-turn magnitude limit, units of 0.1 °/min (99 999.9 °/min ≈ 1 667 °/s,
 /// beyond any gyro's range).
 const ROT_MAX_SCALED: i64 = 999_999;
@@ -90,7 +90,7 @@ pub fn rot(talker: u16, rate: Option<f32>, valid: bool) -> Result<Sentence, Nmea
 }
 
 /// `$--XDR` with pitch and roll (`tilt`: (pitch, roll), rad) and the depth (m, positive down),
-/// each quadruplet only when its value is known (and the depth within −99.9 to 9999.9 m).
+/// each quadruplet only when its value is known (and the depth within −9.9 to 999.9 m).
 /// `None` when neither is: the sentence is not sent.
 pub fn xdr(
     talker: u16,
@@ -180,13 +180,36 @@ mod tests {
         assert_eq!(verify(only_depth.as_bytes()), Ok("HCXDR,D,2.5,M,DEPTH"));
         assert_eq!(x(None, None), None);
         assert_eq!(x(Some((f32::NAN, 0.0)), Some(f32::NAN)), None);
+        // `$PINAH`'s depth range: 999.9 m is printed, 999.96 m (1000.0 rounded) is not, nor
+        // −9.96 m; both sentences agree (issue #38 point 7).
+        assert_eq!(verify(x(None, Some(999.9)).unwrap().as_bytes()), Ok("HCXDR,D,999.9,M,DEPTH"));
+        assert_eq!(x(None, Some(999.96)), None);
+        assert_eq!(x(None, Some(-9.96)), None);
         assert_eq!(x(None, Some(10_000.0)), None);
         // The widest sentence fits.
-        let widest = x(Some((deg(-89.99), deg(-179.9))), Some(-99.9)).unwrap();
+        let widest = x(Some((deg(-89.99), deg(-179.9))), Some(-9.9)).unwrap();
         assert!(widest.len() <= MAX_SENTENCE_LEN, "{widest}");
         assert_eq!(
             verify(widest.as_bytes()),
-            Ok("HCXDR,A,-90.0,D,PTCH,A,-179.9,D,ROLL,D,-99.9,M,DEPTH")
+            Ok("HCXDR,A,-90.0,D,PTCH,A,-179.9,D,ROLL,D,-9.9,M,DEPTH")
         );
+    }
+
+    /// `XDR` and `$PINAH` give a depth for the same depths and none for the others (issue #38
+    /// point 7: `XDR` printed up to 9999.9 m, `$PINAH` up to 999.9 m), and the same value.
+    #[test]
+    fn xdr_and_pinah_agree_on_the_depth() {
+        use crate::nmea::{pinah, PinahData};
+        let mut n = 0;
+        for k in -300..=11_000 {
+            let depth = k as f32 * 0.0917;
+            let x = xdr(HC, None, Some(depth)).map(|s| s.unwrap().as_str().to_string());
+            let p = pinah(&PinahData { depth_m: Some(depth), ..PinahData::default() }).unwrap();
+            let p_depth = p.as_str().split(',').nth(8).unwrap_or("").to_string();
+            let x_depth = x.as_deref().and_then(|x| x.split(',').nth(2)).unwrap_or("").to_string();
+            assert_eq!(x_depth, p_depth, "{depth} m: {x:?} / {}", p.as_str());
+            n += usize::from(!p_depth.is_empty());
+        }
+        assert!(n > 10_000 && n < 11_200, "{n}");
     }
 }

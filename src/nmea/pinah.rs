@@ -19,8 +19,9 @@ const QUATERNION_MAX_SCALED: i64 = 10_000;
 const DEPTH_DECIMALS: u8 = 1;
 /// Printed depth range in units of 0.1 m: −9.9 m to 999.9 m (a depth above the zeroed
 /// surface is an offset of the sensor: the 82 characters keep a sign and one digit for it).
-const DEPTH_MIN_SCALED: i64 = -99;
-const DEPTH_MAX_SCALED: i64 = 9_999;
+/// `XDR` prints the same range (issue #38 point 7: both sentences give a depth or neither).
+pub(super) const DEPTH_MIN_SCALED: i64 = -99;
+pub(super) const DEPTH_MAX_SCALED: i64 = 9_999;
 /// Hex digits of the status word.
 const STATUS_DIGITS: u8 = 6;
 /// Largest printed cycle time, µs (4 digits; longer cycles print 9999).
