@@ -83,9 +83,9 @@ struct Client {
 type Clients = Arc<Mutex<Vec<Client>>>;
 type Serial = Arc<Mutex<Box<dyn SerialPort>>>;
 
-/// One TCP client: its lines to the device until it hangs up.
-fn serve_client(stream: TcpStream, serial: Serial) {
-    let peer = stream.peer_addr().map(|a| a.to_string()).unwrap_or_default();
+/// One TCP client (`peer`, its address as accepted: a client that resets at once has none to
+/// ask for later): its lines to the device until it hangs up.
+fn serve_client(stream: TcpStream, serial: Serial, peer: String) {
     let mut reader = BufReader::new(stream);
     let mut line = Vec::new();
     loop {
@@ -121,7 +121,10 @@ fn write_client(mut stream: TcpStream, lines: std::sync::mpsc::Receiver<Arc<[u8]
 /// Accept TCP clients: each gets its queue, a writer thread and a reader thread.
 fn accept(listener: TcpListener, clients: Clients, serial: Serial) {
     for stream in listener.incoming().flatten() {
-        let peer = stream.peer_addr().map(|a| a.to_string()).unwrap_or_default();
+        let peer = match stream.peer_addr() {
+            Ok(a) => a.to_string(),
+            Err(e) => format!("(address unknown: {e})"),
+        };
         let (Ok(reader), Ok(writer)) = (stream.try_clone(), stream.try_clone()) else { continue };
         let _ = stream.set_write_timeout(Some(CLIENT_WRITE_TIMEOUT));
         let _ = stream.set_nodelay(true);
@@ -130,12 +133,12 @@ fn accept(listener: TcpListener, clients: Clients, serial: Serial) {
         let p = peer.clone();
         thread::spawn(move || write_client(writer, lines, p));
         clients.lock().unwrap_or_else(|e| e.into_inner()).push(Client {
-            peer,
+            peer: peer.clone(),
             queue,
             socket: stream,
         });
         let serial = Arc::clone(&serial);
-        thread::spawn(move || serve_client(reader, serial));
+        thread::spawn(move || serve_client(reader, serial, peer));
     }
 }
 
