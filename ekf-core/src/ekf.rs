@@ -69,6 +69,9 @@ pub struct Ekf {
     pending_yaw: f32,
     /// Yaw moved by the magnetometer during the current block, rad.
     external_yaw: f32,
+    /// The heading moved by corrections (the magnetometer, the yaw hold, `set_yaw`) since
+    /// [`Ekf::take_heading_jumps`] last read it, rad: not a turn of the vehicle.
+    heading_jumps: f32,
     last_flags: Flags,
     /// Cycles since start (wrapping), for the periodic full health check.
     cycle: u32,
@@ -125,6 +128,7 @@ impl Ekf {
             block_q: Quaternion::IDENTITY,
             pending_yaw: 0.0,
             external_yaw: 0.0,
+            heading_jumps: 0.0,
             last_flags: Flags::INITIALISING,
             cycle: 0,
             noise: {
@@ -168,6 +172,14 @@ impl Ekf {
     /// Flags of the last update.
     pub fn last_flags(&self) -> Flags {
         self.last_flags
+    }
+
+    /// How far corrections moved the heading since the last call, rad (and start again): the
+    /// magnetometer's pull, the yaw hold, `set_yaw`. The heading's change less this is the
+    /// gyros' share, the vehicle's turn (issue #38 point 5: the rate of turn). With yaw-split
+    /// on, the accelerometer's corrections never move the heading; off, they are not counted.
+    pub fn take_heading_jumps(&mut self) -> f32 {
+        core::mem::take(&mut self.heading_jumps)
     }
 
     /// The tilt low-pass's time constant in use, s (0: raw samples): the one that follows the
@@ -230,6 +242,8 @@ impl Ekf {
     /// Rotate the attitude about NED z by `angle` rad (a pure yaw change).
     #[inline(never)]
     fn rotate_yaw(&mut self, angle: f32) {
+        // Pre-multiplied by a rotation about NED z, the heading moves by exactly `angle`.
+        self.heading_jumps += angle;
         let turn = Quaternion::from_yaw(angle);
         self.q = (turn * self.q).normalized();
         self.turn_lowpass(turn);
@@ -693,7 +707,9 @@ impl AttitudeFilter for Ekf {
         }
         let old = self.q;
         self.q = self.q.with_yaw(yaw);
-        self.turn_lowpass(Quaternion::from_yaw(heading_change(old, self.q)));
+        let jump = heading_change(old, self.q);
+        self.heading_jumps += jump;
+        self.turn_lowpass(Quaternion::from_yaw(jump));
         self.block_q = self.q;
         self.pending_yaw = 0.0;
         self.external_yaw = 0.0;

@@ -193,6 +193,10 @@ pub struct Counts {
     pub hdm: usize,
     pub rot: usize,
     pub xdr: usize,
+    /// The valid rates of turn, °/min, of outputs in whose interval the magnetometer was used:
+    /// the gyros' share of the heading's change, which its pull is not part of (issue #38
+    /// point 5), so not checked against the change; the caller checks them against the turn.
+    pub rot_mag: Vec<f64>,
 }
 
 /// Check a capture of a device with every sentence on (`SENT,1,1,1,1,1,1,1`, 10 Hz output,
@@ -263,9 +267,17 @@ pub fn check_agreement(p: &Parsed) -> Counts {
         }
         // ROT: the heading's change since the previous output over its 0.1 s (of the
         // scenario's time), °/min; the estimate's 0.005° rounding at both ends is 6 °/min.
+        // While the magnetometer pulls the heading (status bit 10) the rate is the gyros'
+        // share only: collected for the caller.
         let (i, f) = kind(p, o, "ROT").expect("ROT in every output");
         let rate = sk(&p.signalk[i], "navigation.rateOfTurn");
-        if f[1] == "A" {
+        if f[1] == "A" && o.status & 0x400 != 0 {
+            let got = deg(rate.expect("rateOfTurn")) * 60.0;
+            assert!(valid, "{}", p.lines[i]);
+            assert!((f[0].parse::<f64>().unwrap() - got).abs() < 1e-6);
+            n.rot_mag.push(got);
+            n.rot += 1;
+        } else if f[1] == "A" {
             let prev = k.checked_sub(1).map(|j| &outs[j]);
             let expect = prev.map(|q| angle_diff(o.yaw, q.yaw) / 0.1 * 60.0);
             let got = deg(rate.expect("rateOfTurn")) * 60.0;
