@@ -13,11 +13,19 @@
 //! line to the queues and never waits; a client whose queue is full (it has not read for that
 //! many lines, its socket buffers full) is dropped: its socket is shut down, which ends its
 //! reader too, and stderr names it. A client that goes away is removed the same way.
+//!
+//! The bridge outlives the device (issue #38 point 4): when the port fails (the device
+//! unplugged, its emulator killed), stderr names the port and the reason, the clients stay
+//! connected, and the port is opened again every [`RETRY_MIN`] to [`RETRY_MAX`] (doubling)
+//! until it answers; lines the clients send meanwhile are dropped (said once). At the end
+//! (Ctrl-C, `--seconds`) it prints what it did: lines forwarded, clients served and dropped,
+//! reconnections.
 
 use std::{
     io::{BufRead, BufReader, Read, Write},
     net::{Shutdown, SocketAddr, TcpListener, TcpStream, ToSocketAddrs, UdpSocket},
     sync::{
+        atomic::{AtomicUsize, Ordering},
         mpsc::{sync_channel, SyncSender, TrySendError},
         Arc, Mutex,
     },
@@ -39,6 +47,10 @@ const CLIENT_WRITE_TIMEOUT: Duration = Duration::from_secs(2);
 pub const CLIENT_QUEUE: usize = 100;
 /// Longest line taken from a TCP client, bytes (a sentence is at most 82).
 const MAX_CLIENT_LINE: usize = 256;
+/// First wait before opening a lost port again; it doubles up to [`RETRY_MAX`].
+pub const RETRY_MIN: Duration = Duration::from_millis(250);
+/// Longest wait between two attempts to open a lost port.
+pub const RETRY_MAX: Duration = Duration::from_secs(5);
 
 /// `host[:port]` (port 10110 when none is given) to socket addresses.
 pub fn resolve(addr: &str) -> Result<Vec<SocketAddr>, String> {
@@ -81,7 +93,8 @@ struct Client {
 }
 
 type Clients = Arc<Mutex<Vec<Client>>>;
-type Serial = Arc<Mutex<Box<dyn SerialPort>>>;
+/// The device's port for the clients' lines; `None` while it is lost.
+type Serial = Arc<Mutex<Option<Box<dyn SerialPort>>>>;
 
 /// One TCP client (`peer`, its address as accepted: a client that resets at once has none to
 /// ask for later): its lines to the device until it hangs up.
@@ -98,8 +111,13 @@ fn serve_client(stream: TcpStream, serial: Serial, peer: String) {
         let text = String::from_utf8_lossy(&line);
         if let Some(out) = to_device(&text) {
             let mut port = serial.lock().unwrap_or_else(|e| e.into_inner());
-            if port.write_all(out.as_bytes()).and_then(|()| port.flush()).is_err() {
-                eprintln!("bridge: cannot write to the device");
+            match port.as_mut() {
+                Some(p) => {
+                    if p.write_all(out.as_bytes()).and_then(|()| p.flush()).is_err() {
+                        eprintln!("bridge: cannot write to the device");
+                    }
+                }
+                None => eprintln!("bridge: {peer}'s line dropped: the device is not connected"),
             }
         }
     }
@@ -118,9 +136,11 @@ fn write_client(mut stream: TcpStream, lines: std::sync::mpsc::Receiver<Arc<[u8]
     }
 }
 
-/// Accept TCP clients: each gets its queue, a writer thread and a reader thread.
-fn accept(listener: TcpListener, clients: Clients, serial: Serial) {
+/// Accept TCP clients: each gets its queue, a writer thread and a reader thread; `served`
+/// counts them.
+fn accept(listener: TcpListener, clients: Clients, serial: Serial, served: Arc<AtomicUsize>) {
     for stream in listener.incoming().flatten() {
+        served.fetch_add(1, Ordering::Relaxed);
         let peer = match stream.peer_addr() {
             Ok(a) => a.to_string(),
             Err(e) => format!("(address unknown: {e})"),
@@ -175,7 +195,8 @@ pub fn run(
         return Err("nothing to bridge to: give --udp and/or --tcp".into());
     }
     let mut link = Link::open(port)?;
-    let serial: Serial = Arc::new(Mutex::new(link.writer().map_err(|e| e.to_string())?));
+    let serial: Serial = Arc::new(Mutex::new(Some(link.writer().map_err(|e| e.to_string())?)));
+    let served = Arc::new(AtomicUsize::new(0));
     let udp = match udp {
         Some(a) => {
             let target = resolve(a)?[0];
@@ -196,15 +217,32 @@ pub fn run(
             TcpListener::bind(&addr[..]).map_err(|e| format!("cannot listen on {a}: {e}"))?;
         let local = listener.local_addr().map_err(|e| e.to_string())?;
         eprintln!("bridge: {port} ↔ TCP clients on {local}");
-        let (c, s) = (Arc::clone(&clients), Arc::clone(&serial));
-        thread::spawn(move || accept(listener, c, s));
+        let (c, s, n) = (Arc::clone(&clients), Arc::clone(&serial), Arc::clone(&served));
+        thread::spawn(move || accept(listener, c, s, n));
     }
     let end = seconds.map(|s| Instant::now() + Duration::from_secs_f64(s.clamp(0.0, 1e6)));
-    let (mut sent, mut udp_errors, mut slow) = (0u64, 0u64, 0usize);
-    while !stop() && end.is_none_or(|e| Instant::now() < e) {
+    let running = || !stop() && end.is_none_or(|e| Instant::now() < e);
+    let (mut sent, mut udp_errors, mut slow, mut reconnections) = (0u64, 0u64, 0usize, 0usize);
+    while running() {
         let deadline = Instant::now() + Duration::from_millis(200);
-        let Some((_, line)) = link.next_sentence(deadline).map_err(|e| e.to_string())? else {
-            continue;
+        let line = match link.next_sentence(deadline) {
+            Ok(Some((_, line))) => line,
+            Ok(None) => continue,
+            Err(e) => {
+                eprintln!("bridge: {port}: {e}: the device is gone; clients kept, reconnecting");
+                *serial.lock().unwrap_or_else(|e| e.into_inner()) = None;
+                match reconnect(port, &running) {
+                    Some(l) => {
+                        link = l;
+                        let w = link.writer().ok();
+                        *serial.lock().unwrap_or_else(|e| e.into_inner()) = w;
+                        reconnections += 1;
+                        eprintln!("bridge: {port} is back");
+                        continue;
+                    }
+                    None => break,
+                }
+            }
         };
         let bytes: Arc<[u8]> = format!("{line}\r\n").into_bytes().into();
         if let Some((sock, target)) = &udp {
@@ -216,10 +254,37 @@ pub fn run(
         sent += 1;
     }
     eprintln!(
-        "bridge: {sent} sentences forwarded, {udp_errors} UDP send errors, {slow} TCP clients \
-         dropped for not reading"
+        "bridge: {sent} sentences forwarded, {} TCP clients served, {slow} dropped for not \
+         reading, {reconnections} reconnections to {port}, {udp_errors} UDP send errors",
+        served.load(Ordering::Relaxed)
     );
     Ok(())
+}
+
+/// Open `port` again after it failed, waiting [`RETRY_MIN`], doubling up to [`RETRY_MAX`],
+/// while `running`; each failure named once per wait length. `None`: stopped first.
+fn reconnect(port: &str, running: &dyn Fn() -> bool) -> Option<Link> {
+    let mut wait = RETRY_MIN;
+    let mut said = Duration::ZERO;
+    loop {
+        let until = Instant::now() + wait;
+        while Instant::now() < until {
+            if !running() {
+                return None;
+            }
+            thread::sleep(Duration::from_millis(50));
+        }
+        match Link::open(port) {
+            Ok(l) => return Some(l),
+            Err(e) => {
+                if said != wait {
+                    eprintln!("bridge: {e}; trying again every {:.2} s", wait.as_secs_f64());
+                    said = wait;
+                }
+                wait = (wait * 2).min(RETRY_MAX);
+            }
+        }
+    }
 }
 
 #[cfg(test)]
@@ -246,8 +311,9 @@ mod tests {
         let listener = TcpListener::bind("127.0.0.1:0").unwrap();
         let addr = listener.local_addr().unwrap();
         let clients: Clients = Arc::new(Mutex::new(Vec::new()));
-        let (c, serial) = (Arc::clone(&clients), Arc::new(Mutex::new(null_port())));
-        thread::spawn(move || accept(listener, c, serial));
+        let (c, serial) = (Arc::clone(&clients), Arc::new(Mutex::new(Some(null_port()))));
+        let served = Arc::new(AtomicUsize::new(0));
+        thread::spawn(move || accept(listener, c, serial, served));
         let silent: Vec<TcpStream> = (0..3).map(|_| TcpStream::connect(addr).unwrap()).collect();
         let reader = TcpStream::connect(addr).unwrap();
         while clients.lock().unwrap().len() < 4 {

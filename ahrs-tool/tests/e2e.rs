@@ -213,6 +213,77 @@ fn bridge_forwards_sentences_to_udp_and_tcp_and_tcp_commands_to_the_device() {
     }
 }
 
+/// Issue #38 point 4: the bridge outlives the device. Under a running bridge (the port a
+/// symlink to the emulator's pseudo-terminal, as a udev name would be), the emulator is killed:
+/// the bridge names the port and the reason, keeps its TCP client connected, and when a new
+/// emulator answers at the same path it forwards its sentences to the same client; its
+/// summary counts the reconnection. (Before: `ahrs-tool: Broken pipe`, exit 2, every client
+/// cut.)
+#[test]
+fn the_bridge_outlives_the_device_and_keeps_its_clients() {
+    let dir = std::env::temp_dir().join(format!("ahrs-bridge-outlives-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("ttyROV");
+    let mut emu = Emulator::start(&[]);
+    std::os::unix::fs::symlink(&emu.port, &path).unwrap();
+    let tcp_at = {
+        let free = TcpListener::bind("127.0.0.1:0").expect("a free port");
+        format!("127.0.0.1:{}", free.local_addr().unwrap().port())
+    };
+    let log = dir.join("bridge.log");
+    let mut bridge = Killed(
+        Command::new(BIN)
+            .args(["bridge", path.to_str().unwrap(), "--tcp", &tcp_at, "--seconds", "14"])
+            .stderr(Stdio::from(std::fs::File::create(&log).unwrap()))
+            .spawn()
+            .expect("spawn bridge"),
+    );
+    let stream = (0..50)
+        .find_map(|_| {
+            TcpStream::connect(&tcp_at).ok().or_else(|| {
+                std::thread::sleep(Duration::from_millis(50));
+                None
+            })
+        })
+        .expect("the bridge listens");
+    stream.set_read_timeout(Some(Duration::from_millis(500))).unwrap();
+    let mut reader = BufReader::new(stream);
+    // PINAH lines read within `seconds`; `Err` at the end of the stream.
+    let mut pinah = |seconds: f64| -> Result<usize, String> {
+        let end = Instant::now() + Duration::from_secs_f64(seconds);
+        let mut n = 0;
+        while Instant::now() < end {
+            let mut line = String::new();
+            match reader.read_line(&mut line) {
+                Ok(0) => return Err(format!("the bridge closed the client after {n} lines")),
+                Ok(_) => n += usize::from(line.starts_with("$PINAH,")),
+                Err(_) => {}
+            }
+        }
+        Ok(n)
+    };
+    assert!(pinah(1.0).unwrap() > 5);
+    emu.stop();
+    // The device is gone: nothing comes, and the client is still connected.
+    assert!(pinah(1.5).unwrap() <= 2);
+    let emu2 = Emulator::start(&[]);
+    std::fs::remove_file(&path).unwrap();
+    std::os::unix::fs::symlink(&emu2.port, &path).unwrap();
+    // Back within the retries' longest wait (5 s), on the same connection.
+    assert!(pinah(7.0).unwrap() > 5);
+    let status = bridge.0.wait().unwrap();
+    let text = std::fs::read_to_string(&log).unwrap();
+    assert!(status.success(), "{text}");
+    let name = path.display().to_string();
+    assert!(
+        text.contains(&format!("bridge: {name}: ")) && text.contains("the device is gone"),
+        "{text}"
+    );
+    assert!(text.contains(&format!("bridge: {name} is back")), "{text}");
+    assert!(text.contains("1 TCP clients served") && text.contains("1 reconnections"), "{text}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 /// `send LIST` without an index lists every setting: name, value, unit and range (issue #30;
 /// the device alone answers `ERR,LIST,args`). The expected rows are `docs/commands.md`'s.
 #[test]
