@@ -37,6 +37,7 @@ use inemo_ahrs::nmea;
 use serialport::SerialPort;
 
 use crate::link::{command_line, Link};
+use crate::signalk;
 
 /// The usual NMEA 0183 network port.
 pub const NMEA_PORT: u16 = 10110;
@@ -52,14 +53,33 @@ pub const RETRY_MIN: Duration = Duration::from_millis(250);
 /// Longest wait between two attempts to open a lost port.
 pub const RETRY_MAX: Duration = Duration::from_secs(5);
 
+/// Where the bridge sends the device's output.
+pub struct Outputs<'a> {
+    /// Every sentence as a UDP datagram to `host[:port]`.
+    pub udp: Option<&'a str>,
+    /// A TCP server on `addr[:port]`.
+    pub tcp: Option<&'a str>,
+    /// Signal K deltas (`signalk`) to a server's UDP input on `host[:port]`.
+    pub signalk: Option<&'a str>,
+}
+
+/// A Signal K server's UDP input port when none is given (the port its own Signal K TCP stream
+/// uses by default).
+pub const SIGNALK_PORT: u16 = 8375;
+
 /// `host[:port]` (port 10110 when none is given) to socket addresses.
 pub fn resolve(addr: &str) -> Result<Vec<SocketAddr>, String> {
+    resolve_with(addr, NMEA_PORT)
+}
+
+/// `host[:port]`, `port` when none is given.
+fn resolve_with(addr: &str, port: u16) -> Result<Vec<SocketAddr>, String> {
     let direct = addr.to_socket_addrs().map(Iterator::collect::<Vec<_>>);
     let found = match direct {
         Ok(a) if !a.is_empty() => a,
         _ => {
             let host = addr.trim_start_matches('[').trim_end_matches(']');
-            (host, NMEA_PORT)
+            (host, port)
                 .to_socket_addrs()
                 .map_err(|e| format!("cannot resolve {addr}: {e}"))?
                 .collect()
@@ -186,13 +206,13 @@ fn offer(clients: &mut Vec<Client>, line: &Arc<[u8]>) -> usize {
 /// Run the bridge until `stop` says so (Ctrl-C, or the end of `seconds`).
 pub fn run(
     port: &str,
-    udp: Option<&str>,
-    tcp: Option<&str>,
+    to: Outputs,
     seconds: Option<f64>,
     stop: &dyn Fn() -> bool,
 ) -> Result<(), String> {
-    if udp.is_none() && tcp.is_none() {
-        return Err("nothing to bridge to: give --udp and/or --tcp".into());
+    let Outputs { udp, tcp, signalk } = to;
+    if udp.is_none() && tcp.is_none() && signalk.is_none() {
+        return Err("nothing to bridge to: give --udp, --tcp and/or --signalk".into());
     }
     let mut link = Link::open(port)?;
     let serial: Serial = Arc::new(Mutex::new(Some(link.writer().map_err(|e| e.to_string())?)));
@@ -210,6 +230,18 @@ pub fn run(
         }
         None => None,
     };
+    let signalk = match signalk {
+        Some(a) => {
+            let target = resolve_with(a, SIGNALK_PORT)?[0];
+            let bind: SocketAddr =
+                if target.is_ipv4() { ([0, 0, 0, 0], 0).into() } else { ([0u16; 8], 0).into() };
+            let sock = UdpSocket::bind(bind).map_err(|e| format!("UDP socket: {e}"))?;
+            eprintln!("bridge: {port} → Signal K deltas to UDP {target}");
+            Some((sock, target))
+        }
+        None => None,
+    };
+    let mut meta_sent: Option<Instant> = None;
     let clients: Clients = Arc::new(Mutex::new(Vec::new()));
     if let Some(a) = tcp {
         let addr = resolve(a)?;
@@ -251,6 +283,20 @@ pub fn run(
             }
         }
         slow += offer(&mut clients.lock().unwrap_or_else(|e| e.into_inner()), &bytes);
+        if let Some((sock, target)) = &signalk {
+            let mut send = |v: serde_json::Value| {
+                if sock.send_to(format!("{v}\n").as_bytes(), target).is_err() {
+                    udp_errors += 1;
+                }
+            };
+            if meta_sent.is_none_or(|t| t.elapsed() >= signalk::META_EVERY) {
+                send(signalk::meta());
+                meta_sent = Some(Instant::now());
+            }
+            if let Some(d) = nmea::verify(line.as_bytes()).ok().and_then(signalk::delta) {
+                send(d);
+            }
+        }
         sent += 1;
     }
     eprintln!(

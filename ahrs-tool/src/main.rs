@@ -16,6 +16,7 @@ mod link;
 mod live;
 mod raw;
 mod settings_cmd;
+mod signalk;
 
 use std::{
     fs::File,
@@ -124,6 +125,11 @@ enum Cmd {
         /// their lines go to the device (a command body such as `SENT,HDT,1`, or a sentence).
         #[arg(long)]
         tcp: Option<String>,
+        /// Send attitude, true heading, rate of turn and depth as Signal K deltas (JSON) to a
+        /// Signal K server's UDP input on `host[:port]` (8375 by default): what its NMEA 0183
+        /// parser cannot read from `XDR` and `$PINAH`.
+        #[arg(long)]
+        signalk: Option<String>,
         /// Stop after this many seconds (default: until interrupted).
         #[arg(long, value_parser = seconds_arg)]
         seconds: Option<f64>,
@@ -240,10 +246,15 @@ fn main() -> ExitCode {
             log(&port, &out, seconds, restart, device_estimates.as_deref(), force)
         }
         Cmd::Calibrate { port, seconds } => calibrate(&port, seconds),
-        Cmd::Bridge { port, udp, tcp, seconds } => {
+        Cmd::Bridge { port, udp, tcp, signalk, seconds } => {
             catch_signals();
             let stop = || INTERRUPTED.load(Ordering::SeqCst);
-            bridge::run(&port, udp.as_deref(), tcp.as_deref(), seconds, &stop)
+            let to = bridge::Outputs {
+                udp: udp.as_deref(),
+                tcp: tcp.as_deref(),
+                signalk: signalk.as_deref(),
+            };
+            bridge::run(&port, to, seconds, &stop)
         }
         Cmd::Settings { action: SettingsAction::Get { port, out } } => {
             settings_cmd::get(&port, &out)
