@@ -89,6 +89,16 @@ pub fn judge(started: bool, hsi_ticks: Option<u32>, hse_ticks: Option<u32>) -> H
 mod tests {
     use super::*;
 
+    /// The names the boot log prints for each verdict (the self-test report's clock item is
+    /// its kHz and grade; these are the words an operator reads in the log).
+    #[test]
+    fn each_verdict_has_its_name() {
+        assert_eq!(HseCheck::Ok(8_000_000).name(), "HSE 8 MHz");
+        assert_eq!(HseCheck::WrongFrequency(12_000_000).name(), "HSE wrong frequency");
+        assert_eq!(HseCheck::Unmeasured.name(), "HSE unmeasured");
+        assert_eq!(HseCheck::NotStarted.name(), "HSE not started");
+    }
+
     /// Timer ticks over `periods` LSI periods with the timer at `timer_hz` (truncated: the
     /// captured counter difference), summed over four measurements as the firmware does.
     fn ticks(timer_hz: f64, lsi_hz: f64, periods: u32) -> u32 {

@@ -146,6 +146,8 @@ mod tests {
         reads: Cell<u32>,
         /// SWS stuck (a broken switch): it never follows.
         sws_stuck: bool,
+        /// Every value written to CFGR, as written.
+        cfgr_writes: Vec<u32>,
     }
 
     const PLL_CFG: u32 = 0x003F_0000; // PLLSRC, PLLXTPRE, PLLMUL
@@ -162,6 +164,7 @@ mod tests {
                 cfgr_reads: Cell::new(0),
                 reads: Cell::new(0),
                 sws_stuck: false,
+                cfgr_writes: Vec::new(),
             }
         }
 
@@ -232,6 +235,7 @@ mod tests {
         }
 
         fn set_cfgr(&mut self, v: u32) {
+            self.cfgr_writes.push(v);
             let old = self.cfgr.get();
             let mut v = (v & !CFGR_SWS) | (old & CFGR_SWS); // SWS is read-only
             if self.cr.get() & (CR_PLLON | CR_PLLRDY) != 0 {
@@ -259,6 +263,56 @@ mod tests {
         assert_eq!(m.cr.get(), reset.cr.get(), "CR {:#010x}", m.cr.get());
         assert_eq!(m.cfgr.get(), 0, "CFGR {:#010x}", m.cfgr.get());
         assert_eq!(m.cir & 0x9F, 0, "CIR flags {:#x}", m.cir);
+    }
+
+    /// The bits and ST's masks as RM0008 Rev 21 (§8.3.1 RCC_CR, §8.3.2 RCC_CFGR) and
+    /// `system_stm32f10x.c` V3.5.0 write them, in hex, not from the constants above (the model
+    /// uses those: a wrong bit would move both).
+    #[test]
+    fn the_register_bits_are_rm0008_s() {
+        let cr =
+            [CR_HSION, CR_HSIRDY, CR_HSEON, CR_HSERDY, CR_HSEBYP, CR_CSSON, CR_PLLON, CR_PLLRDY];
+        assert_eq!(
+            cr,
+            [
+                0x1,
+                0x2,
+                0x0001_0000,
+                0x0002_0000,
+                0x0004_0000,
+                0x0008_0000,
+                0x0100_0000,
+                0x0200_0000
+            ]
+        );
+        assert_eq!((CFGR_SW, CFGR_SWS), (0x3, 0xC));
+        // SystemInit: RCC->CR &= 0xFEF6FFFF (HSEON, CSSON, PLLON off), &= 0xFFFBFFFF (HSEBYP).
+        assert_eq!(!(CR_HSEON | CR_CSSON | CR_PLLON), 0xFEF6_FFFF);
+        assert_eq!(!CR_HSEBYP, 0xFFFB_FFFF);
+        assert_eq!((CFGR_KEEP_PLL, CIR_CLEAR), (0xF8FF_0000, 0x009F_0000));
+    }
+
+    /// From the bootloader's CFGR (0x001D040A: SW = SWS = PLL, PPRE1 /2, PLLSRC HSE, PLLMUL
+    /// ×9), the writes by hand: SW to the HSI (0x001D0408), then, switched, the prescalers and
+    /// MCO to reset with the PLL's configuration kept (0x001D0000), then, the PLL stopped, 0.
+    #[test]
+    fn the_cfgr_writes_are_the_safe_order_s() {
+        let mut m = Model::after_st_bootloader();
+        assert_eq!(m.cfgr.get(), 0x001D_040A);
+        assert_eq!(reset_clock_tree(&mut m), Ok(()));
+        assert_eq!(m.cfgr_writes, [0x001D_0408, 0x001D_0000, 0]);
+    }
+
+    /// A clock left on the HSE alone, the HSI off (a bootloader may stop it): the HSI comes
+    /// back, the system clock goes to it, and the HSE stops.
+    #[test]
+    fn from_the_hse_alone_the_hsi_comes_back() {
+        let mut m = Model::new(CR_HSEON | CR_HSERDY, 0b01 | 0b01 << 2);
+        assert_eq!(reset_clock_tree(&mut m), Ok(()));
+        for _ in 0..10 {
+            let _ = (m.cr(), m.cfgr());
+        }
+        assert_eq!((m.cr.get(), m.cfgr.get()), (CR_HSION | CR_HSIRDY, 0));
     }
 
     #[test]

@@ -359,3 +359,11 @@ fn the_bus_clock_is_the_highest_exact_one_at_or_below_the_setting() {
         }
     }
 }
+
+/// The names the boot log prints for a bus clear's outcome.
+#[test]
+fn each_clear_outcome_has_its_name() {
+    assert_eq!(Clear::Freed { clocks: 3 }.name(), "freed");
+    assert_eq!(Clear::SdaStuck.name(), "SDA stuck low");
+    assert_eq!(Clear::SclStuck.name(), "SCL stuck low");
+}
