@@ -841,3 +841,27 @@ fn plot_titles_the_run_with_its_rmse_and_shades_the_initialisation() {
     assert!(!o.status.success() && stderr(&o).contains("10x10"), "{}", stderr(&o));
     assert!(!bad.exists());
 }
+
+/// Issue #39 point 2: a process killed while writing its output leaves nothing behind. A
+/// `simulate` of 10⁶ s (the longest accepted), killed (SIGKILL: no handler runs) after it has
+/// written for a second: the directory holds no file, hidden or not (before: a hidden `.tmp`
+/// file of what it had written, hundreds of MB for a long run). On Linux the output is an
+/// unnamed file until it is complete (`O_TMPFILE`).
+#[test]
+#[cfg(target_os = "linux")]
+fn a_killed_run_leaves_no_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("long.csv");
+    let mut child = Command::new(BIN)
+        .args(["simulate", "pitch-sine", "--out", p(&out), "--duration", "1000000", "--seed", "1"])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(1500));
+    assert!(child.try_wait().unwrap().is_none(), "simulate ended before it was killed");
+    child.kill().unwrap();
+    child.wait().unwrap();
+    let left: Vec<_> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().path()).collect();
+    assert!(left.is_empty(), "left behind: {left:?}");
+}
