@@ -277,6 +277,22 @@ mod tests {
         }
     }
 
+    /// The names the boot log prints when the pattern changes (`status LED: …`).
+    #[test]
+    fn each_mode_has_its_name() {
+        let names = MODES.map(Mode::name);
+        assert_eq!(
+            names,
+            [
+                "running",
+                "init",
+                "running on the internal oscillator (no USB)",
+                "running, boot self-test FAIL",
+                "fault"
+            ]
+        );
+    }
+
     #[test]
     fn health_is_the_union_of_the_cycles() {
         let mut h = Health::default();
@@ -304,6 +320,8 @@ mod tests {
         ] {
             let mut led = Led::new(clock);
             assert_eq!(led.mode(), Mode::Init);
+            // The gyros settling: seconds without a cycle before the first are not a fault.
+            assert_eq!(led.frame(health(Status::NONE, 0)), (Mode::Init, false));
             assert_eq!(led.frame(health(Status::NONE, 0)), (Mode::Init, false));
             let first = Health { selftest: Some(grade), ..health(init, 40) };
             assert_eq!(led.frame(first), (Mode::Init, false));
