@@ -194,6 +194,11 @@ pub extern "C" fn ahrs_bench_select(id: u32) -> u32 {
     st.active = Active::None;
     st.cursor = 0;
     st.moving = false;
+    // No output yet: the digest of the first steps (before the first output step) must not
+    // fold the previous filter's last output (the emulation runs every filter in one machine,
+    // the host one process per filter).
+    // SAFETY: see `Global`.
+    unsafe { core::ptr::write_volatile(AHRS_BENCH_EULER.0.get(), [0.0; 3]) };
     st.digest = FNV_OFFSET;
     let ok = match id {
         0 => {
