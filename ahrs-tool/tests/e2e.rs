@@ -128,6 +128,18 @@ fn calibrate_quits_on_q_without_changes() {
 }
 
 /// A child process killed on drop.
+/// A TCP connection to the bridge at `addr`, once it listens (2.5 s at most).
+fn connect_to_bridge(addr: &str) -> TcpStream {
+    (0..50)
+        .find_map(|_| {
+            TcpStream::connect(addr).ok().or_else(|| {
+                std::thread::sleep(Duration::from_millis(50));
+                None
+            })
+        })
+        .expect("the bridge listens")
+}
+
 struct Killed(Child);
 
 impl Drop for Killed {
@@ -175,14 +187,7 @@ fn bridge_forwards_sentences_to_udp_and_tcp_and_tcp_commands_to_the_device() {
     assert!(first.iter().filter(|l| l.starts_with("$PINAH,")).count() > 20, "{first:?}");
     assert!(!first.iter().any(|l| l.starts_with("$HC")), "standard sentences are off by default");
     // A TCP client: it reads the stream, and its lines are commands to the device.
-    let stream = (0..50)
-        .find_map(|_| {
-            TcpStream::connect(&tcp_at).ok().or_else(|| {
-                std::thread::sleep(Duration::from_millis(50));
-                None
-            })
-        })
-        .expect("the bridge listens");
+    let stream = connect_to_bridge(&tcp_at);
     stream.set_read_timeout(Some(Duration::from_secs(3))).unwrap();
     let mut writer = stream.try_clone().unwrap();
     let mut reader = BufReader::new(stream);
@@ -238,14 +243,7 @@ fn the_bridge_outlives_the_device_and_keeps_its_clients() {
             .spawn()
             .expect("spawn bridge"),
     );
-    let stream = (0..50)
-        .find_map(|_| {
-            TcpStream::connect(&tcp_at).ok().or_else(|| {
-                std::thread::sleep(Duration::from_millis(50));
-                None
-            })
-        })
-        .expect("the bridge listens");
+    let stream = connect_to_bridge(&tcp_at);
     stream.set_read_timeout(Some(Duration::from_millis(500))).unwrap();
     let mut reader = BufReader::new(stream);
     // PINAH lines read within `seconds`; `Err` at the end of the stream.

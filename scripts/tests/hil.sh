@@ -129,14 +129,18 @@ probe_calls missing-port "list"
 # and the value after the "reset"; then stage 2 runs, and the exit is 1 with 3 failures.
 tool="${CARGO_TARGET_DIR:-$root/target}/debug/ahrs-tool"
 if (cd "$root" && cargo build -q --locked -p ahrs-tool); then
-  "$tool" emulate --pty --broken-mag >"$t/emu.out" 2>&1 &
-  emu=$!
-  pty=""
-  for _ in $(seq 100); do
-    pty=$(head -n1 "$t/emu.out" 2>/dev/null)
-    [[ "$pty" == /dev/* ]] && break
-    sleep 0.1
-  done
+  # start_emulator ARGS...: the emulator in the background (pid in $emu), its pty in $pty.
+  start_emulator() {
+    "$tool" emulate --pty "$@" >"$t/emu.out" 2>&1 &
+    emu=$!
+    pty=""
+    for _ in $(seq 100); do
+      pty=$(head -n1 "$t/emu.out" 2>/dev/null)
+      [[ "$pty" == /dev/* ]] && break
+      sleep 0.1
+    done
+  }
+  start_emulator --broken-mag
   if [[ "$pty" == /dev/* ]]; then
     run emulator 1 env PATH="$t/bin:$PATH" FAKE_PROBE=1 FAKE_FLASH=1 "$hil" --port "$pty"
     says emulator "hil: FAILED: no boot sentence \$PINAB with version"
@@ -160,14 +164,7 @@ run --chip STM32F103RE $suite"
     # as a healthy board's: WARN, crystal 8000 kHz).
     kill "$emu" 2>/dev/null
     wait "$emu" 2>/dev/null
-    "$tool" emulate --pty >"$t/emu.out" 2>&1 &
-    emu=$!
-    pty=""
-    for _ in $(seq 100); do
-      pty=$(head -n1 "$t/emu.out" 2>/dev/null)
-      [[ "$pty" == /dev/* ]] && break
-      sleep 0.1
-    done
+    start_emulator
     image="$root/target/inemo-ahrs-dfu.bin"
     size=$(stat -c %s "$image" 2>/dev/null || echo 0)
     good="/0x08000000/06*002Ka,250*002Kg"
