@@ -159,12 +159,9 @@ fn write_client(mut stream: TcpStream, lines: std::sync::mpsc::Receiver<Arc<[u8]
 /// Accept TCP clients: each gets its queue, a writer thread and a reader thread; `served`
 /// counts them.
 fn accept(listener: TcpListener, clients: Clients, serial: Serial, served: Arc<AtomicUsize>) {
-    for stream in listener.incoming().flatten() {
+    loop {
+        let Ok((stream, peer)) = next_client(&listener) else { continue };
         served.fetch_add(1, Ordering::Relaxed);
-        let peer = match stream.peer_addr() {
-            Ok(a) => a.to_string(),
-            Err(e) => format!("(address unknown: {e})"),
-        };
         let (Ok(reader), Ok(writer)) = (stream.try_clone(), stream.try_clone()) else { continue };
         let _ = stream.set_write_timeout(Some(CLIENT_WRITE_TIMEOUT));
         let _ = stream.set_nodelay(true);
@@ -180,6 +177,13 @@ fn accept(listener: TcpListener, clients: Clients, serial: Serial, served: Arc<A
         let serial = Arc::clone(&serial);
         thread::spawn(move || serve_client(reader, serial, peer));
     }
+}
+
+/// The next TCP client and its name: the address `accept` itself returns, which a client that
+/// has already reset still has (asking the socket for its peer then fails with ENOTCONN, and the
+/// log named nobody: issue #38 point 8).
+fn next_client(listener: &TcpListener) -> std::io::Result<(TcpStream, String)> {
+    listener.accept().map(|(stream, addr)| (stream, addr.to_string()))
 }
 
 /// Offers `line` to every client's queue without waiting: a client whose queue is full is
@@ -413,6 +417,24 @@ mod tests {
             };
             assert!(closed, "a dropped client's connection is still open");
         }
+    }
+
+    /// Issue #38 point 8: a client that resets before the bridge gets to it (SO_LINGER 0, then
+    /// closed: the kernel answers with RST) is still named by the address it connected from.
+    #[test]
+    fn a_client_that_resets_at_once_is_named() {
+        use nix::sys::socket::{setsockopt, sockopt::Linger};
+        use std::os::fd::AsRawFd;
+        let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+        let client = TcpStream::connect(listener.local_addr().unwrap()).unwrap();
+        let from = client.local_addr().unwrap().to_string();
+        setsockopt(client.as_raw_fd(), Linger, &libc::linger { l_onoff: 1, l_linger: 0 }).unwrap();
+        drop(client);
+        thread::sleep(Duration::from_millis(100));
+        let (stream, name) = next_client(&listener).unwrap();
+        // The reset arrived: the socket itself no longer knows its peer.
+        assert!(stream.peer_addr().is_err(), "the client did not reset");
+        assert_eq!(name, from);
     }
 
     /// A serial port that takes every byte (the clients here send nothing).
