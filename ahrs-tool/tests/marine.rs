@@ -137,6 +137,46 @@ fn nothing_invalid_or_relative_reaches_signal_k_as_valid_and_yaw_makes_the_headi
     assert!(angle_diff(headings[0], 123.4).abs() < 5.0, "{headings:?}");
 }
 
+/// Issue #38 point 6: the guidance's Signal K row (`docs/marine.md`, its command as printed
+/// there) gives Signal K one `navigation.headingTrue` per output, within 0–360°, also while the
+/// magnetometer references the heading; `HDG` added to it gives a second value on the same
+/// path every output (Signal K's magnetic heading plus variation, not wrapped), which is why
+/// the guidance never enables both.
+#[test]
+fn the_signal_k_row_of_the_guidance_gives_one_true_heading_per_output() {
+    let Some(clients) = clients_or_skip() else { return };
+    let doc = std::fs::read_to_string(common::clients::root().join("docs/marine.md")).unwrap();
+    let row = doc.lines().find(|l| l.starts_with("| Signal K server |")).expect("the row");
+    let command = row.split('`').rfind(|s| s.starts_with("SENT,")).expect("its command");
+    let emu = Emulator::start(&["--scenario", "start-moving", "--mag"]);
+    emu.send("SET,mag.enabled,1");
+    emu.send(command);
+    // Per output with the magnetometer's reference (status bits 20-21 = 2): the headingTrue
+    // values Signal K read from its lines.
+    let true_headings = |p: &common::clients::Parsed| -> Vec<Vec<f64>> {
+        outputs(p)
+            .iter()
+            .filter(|o| o.status & common::clients::INVALID == 0 && (o.status >> 20) & 3 == 2)
+            .map(|o| {
+                o.others
+                    .iter()
+                    .filter_map(|&i| sk(&p.signalk[i], "navigation.headingTrue"))
+                    .collect()
+            })
+            .collect()
+    };
+    let row_only = true_headings(&parse(&clients, emu.capture(2.0), "signalk-row"));
+    assert!(row_only.len() > 100, "{} outputs under the magnetometer", row_only.len());
+    for h in &row_only {
+        assert_eq!(h.len(), 1, "{command}: {h:?}");
+        assert!((0.0..std::f64::consts::TAU).contains(&h[0]), "{h:?}");
+    }
+    emu.send("SENT,HDG,1");
+    let with_hdg = true_headings(&parse(&clients, emu.capture(1.0), "signalk-hdg"));
+    assert!(with_hdg.len() > 50);
+    assert!(with_hdg.iter().all(|h| h.len() == 2), "{with_hdg:?}");
+}
+
 /// Issue #38 point 7: a depth beyond the sensor's range is flagged as the board flags it. The
 /// emulator's ADC counts saturate at full scale, the depth channel is then at its rail (status
 /// bit 19), and neither `XDR` nor `$PINAH` gives a depth; within the range both give the same.
