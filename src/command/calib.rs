@@ -145,7 +145,7 @@ impl GyroBiasCal {
         }
         let dt = if dt.is_finite() && dt > 0.0 { dt } else { 0.0 };
         self.elapsed_s += dt;
-        // Done at the sample nearest to the duration.
+        // Done at the sample nearest to the duration (of two equally near, the earlier).
         if self.elapsed_s + 0.5 * dt < self.duration_s {
             return CalEnd::Running;
         }
@@ -188,7 +188,7 @@ impl AccelPositionCal {
         }
         let dt = if dt.is_finite() && dt > 0.0 { dt } else { 0.0 };
         self.elapsed_s += dt;
-        // Done at the sample nearest to the duration.
+        // Done at the sample nearest to the duration (of two equally near, the earlier).
         if self.elapsed_s + 0.5 * dt < self.duration_s {
             return CalEnd::Running;
         }
@@ -262,6 +262,23 @@ mod tests {
             assert_eq!(gyro.push(0.05, rate, Some([0.0, 0.0, 1.0]), &s), CalEnd::Running, "{k}");
         }
         assert!(matches!(gyro.push(0.05, rate, Some([0.0, 0.0, 1.0]), &s), CalEnd::Done(_)));
+    }
+
+    /// The tie between two samples equally near the duration goes to the earlier one, and ten
+    /// gyro samples are enough: with 1/64 s cycles (exact in binary) and 10.5/64 s, both
+    /// collections end at the tenth cycle, the gyro's with its mean.
+    #[test]
+    fn a_tie_ends_at_the_earlier_sample_and_ten_gyro_samples_are_enough() {
+        let s = PipelineSettings { filter_rate_hz: 64, ..PipelineSettings::default() };
+        let (dt, up, rate) = (1.0 / 64.0, Some([0.0, 0.0, 1.0]), [0.01, -0.02, 0.003]);
+        let mut cal = AccelPositionCal::new(Position::ZUp, 10.5 / 64.0);
+        let mut gyro = GyroBiasCal::new(10.5 / 64.0);
+        for k in 1..10 {
+            assert_eq!(cal.push(dt, up, &s), CalEnd::Running, "cycle {k}");
+            assert_eq!(gyro.push(dt, Some(rate), up, &s), CalEnd::Running, "cycle {k}");
+        }
+        assert_eq!(cal.push(dt, up, &s), CalEnd::Done([0.0, 0.0, 1.0]));
+        assert_eq!(gyro.push(dt, Some(rate), up, &s), CalEnd::Done(rate));
     }
 
     /// A cycle time that is not a positive number adds no time: with one before every valid

@@ -132,6 +132,12 @@ mod tests {
         LineEvent::Line(Line::from_bytes(s.as_bytes()))
     }
 
+    /// A test's failure message shows the line as text (the `Debug` the assertions print).
+    #[test]
+    fn a_line_debugs_as_its_text() {
+        assert_eq!(format!("{:?}", Line::from_bytes(b"$PINAC,VER")), r#"Line(Ok("$PINAC,VER"))"#);
+    }
+
     #[test]
     fn line_ends_and_noise() {
         let mut a = LineAssembler::new();

@@ -484,6 +484,15 @@ fn zero_depth_uses_the_latest_reading() {
     railed.rails = crate::adc::Rails::DEPTH;
     cycle(&mut d, &Inputs { dt: 0.02, adc: Some(railed), ..Inputs::default() });
     assert_eq!(refused(&mut d, &mut f, &cmd("PINAC,ZERO")), "PINAR,ERR,ZERO,no-depth");
+    // Nor does it replace the latest good one: a valid reading, then one at the rail (whose
+    // depth is a finite number all the same), and ZERO takes the valid one.
+    let good = adc([0.0; 3], 0.02);
+    cycle(&mut d, &Inputs { dt: 0.02, adc: Some(good), ..Inputs::default() });
+    cycle(&mut d, &Inputs { dt: 0.02, adc: Some(railed), ..Inputs::default() });
+    let (r, _) = run(&mut d, &mut f, "PINAC,ZERO");
+    assert!(r.starts_with("PINAR,OK,ZERO,"), "{r}");
+    let expect = d.settings().depth.pressure_pa(counts(0.02) * 3.3 / 4095.0);
+    assert!((d.settings().depth.surface_pressure_pa - expect).abs() < 1.0);
 }
 
 #[test]
@@ -583,6 +592,13 @@ fn six_position_accelerometer_calibration() {
         }
         fit.add_position(pos, Vec3::new(mean[0], mean[1], mean[2]));
     }
+    assert_eq!(run(&mut d, &mut f, "PINAC,STATUS").0, "PINAR,OK,STATUS,DEFAULTS,,POR,0001,3F,R,,");
+    // A position measured again is still one of six.
+    run(&mut d, &mut f, "PINAC,ACAL,ZUP");
+    let reply = (0..150)
+        .find_map(|_| cycle(&mut d, &inputs([0.0; 3], raw_of([0.0, 0.0, 1.0]), &mut n)).reply)
+        .map(|r| check(&r));
+    assert!(reply.as_deref().is_some_and(|r| r.ends_with(",6")), "{reply:?}");
     assert_eq!(run(&mut d, &mut f, "PINAC,STATUS").0, "PINAR,OK,STATUS,DEFAULTS,,POR,0001,3F,R,,");
     // The host fits X from the six means and sets it row by row.
     let cal = fit.solve().unwrap();
