@@ -8,7 +8,9 @@ the thumbv7m `cycle-bench` ELF under Unicorn emulation and the model of `m3model
 Per filter: `ahrs_bench_select(id)` (initialisation window, not measured), then `steps` calls
 of `ahrs_bench_step()`, each measured alone (from its first instruction to its return,
 inclusive). Prints cycles at 0 and 2 wait states, the stack high-water of one step, the flash
-of the code reachable from the filter's step, and where the EKF's cycles go.
+of the code reachable from the filter's step, and where the EKF's cycles go. `--json` also
+holds every step's cycles at 2 wait states (`cycles_2ws_steps`: on the gentle lap the three
+rest-block ends are the steps over 45,000).
 `--check` fails (exit 1) when the EKF's mean or maximum cycles at 2 wait states, on the gentle
 lap or on the shaking one (`ekf-moving`), exceed the committed baseline by more than 5 %. `--host-compare` checks that the emulated estimates are
 bit-identical to the host build's: the final Euler output (`cargo run -p cycle-bench -- euler ID
@@ -96,6 +98,7 @@ def measure(m: m3model.Machine, name: str, steps: int, attribute: bool,
         "cycles_2ws_median": statistics.median(cyc2),
         "cycles_2ws_min": min(cyc2),
         "cycles_2ws_max": max(cyc2),
+        "cycles_2ws_steps": cyc2,
         "stack_bytes": stack,
         "flash_bytes": sum(flash.values()),
         "flash_by_category": flash,
