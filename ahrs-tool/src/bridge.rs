@@ -149,7 +149,14 @@ fn serve_client(stream: TcpStream, serial: Serial, peer: String) {
 fn write_client(mut stream: TcpStream, lines: std::sync::mpsc::Receiver<Arc<[u8]>>, peer: String) {
     for line in lines {
         if let Err(e) = stream.write_all(&line) {
-            eprintln!("bridge: TCP client {peer} dropped: {e}");
+            match e.kind() {
+                // The write timeout (EAGAIN on Linux): the client stopped reading.
+                std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut => eprintln!(
+                    "bridge: TCP client {peer} dropped: its socket took nothing for {} s",
+                    CLIENT_WRITE_TIMEOUT.as_secs()
+                ),
+                _ => eprintln!("bridge: TCP client {peer} dropped: {e}"),
+            }
             let _ = stream.shutdown(Shutdown::Both);
             return;
         }
