@@ -15,7 +15,7 @@ use host_tests::config::ReplayConfig;
 use host_tests::handheld;
 use host_tests::real::score;
 use host_tests::replay::FilterKind;
-use host_tests::settings::{device_form, parse_assignment, ReplaySettings};
+use host_tests::settings::with_assignments;
 use host_tests::trace::{TraceColumns, TraceWriter};
 
 fn run() -> Result<(), String> {
@@ -29,11 +29,10 @@ fn run() -> Result<(), String> {
     let rate_hz = host_tests::sim::rate_from_env("HANDHELD_RATE", handheld::RATE_HZ)?;
     let mut base = ReplayConfig::default();
     base.conditioning.lever_arm = ekf_core::lever_arm::LeverArm::NONE;
-    let mut rs = ReplaySettings::new(device_form(&base));
-    for text in rest {
-        rs.apply_given(&parse_assignment(text)?);
+    let (cfg, notes) = with_assignments(&base, rest)?;
+    for note in notes {
+        eprintln!("{note}");
     }
-    let cfg = rs.config(&base);
     let start = if moving_start {
         "moving start, simulated gyro bias 0 (configured: the iNEMO's)"
     } else {

@@ -9,7 +9,7 @@ use std::thread;
 
 use host_tests::real::{score, Broad, RepoImu, ScoreRmse};
 use host_tests::replay::FilterKind;
-use host_tests::settings::{device_form, parse_assignment, ReplaySettings};
+use host_tests::settings::with_assignments;
 
 fn table(
     title: &str,
@@ -55,15 +55,10 @@ fn run() -> Result<(), String> {
             .ok_or_else(|| format!("unknown filter {s:?} (ekf, ukf, ssukf, cf, gyro)"))?,
         None => FilterKind::Ekf,
     };
-    let base = RepoImu::config();
-    let mut rs = ReplaySettings::new(device_form(&base));
-    for text in args.iter().skip(1) {
-        rs.apply_given(&parse_assignment(text)?);
-    }
-    for note in rs.notes() {
+    let (cfg, notes) = with_assignments(&RepoImu::config(), args.get(1..).unwrap_or(&[]))?;
+    for note in notes {
         eprintln!("{note}");
     }
-    let cfg = rs.config(&base);
     let which = std::env::var("REALDATA").unwrap_or_default();
     if which != "repoimu" {
         let files = Broad::load(&Broad::dir())?;

@@ -14,7 +14,7 @@ use ekf_core::{
 };
 use host_tests::real::{errors, Broad, RepoImu};
 use host_tests::replay::replay_rows;
-use host_tests::settings::{device_form, parse_assignment, ReplaySettings};
+use host_tests::settings::with_assignments;
 use host_tests::trace::TraceRow;
 
 /// The EKF, noting its time constant after every update.
@@ -143,15 +143,11 @@ fn windows(rows: &[Row]) {
 }
 
 fn run() -> Result<(), String> {
-    let base = RepoImu::config();
-    let mut rs = ReplaySettings::new(device_form(&base));
-    for text in std::env::args().skip(1) {
-        rs.apply_given(&parse_assignment(&text)?);
-    }
-    for note in rs.notes() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let (cfg, notes) = with_assignments(&RepoImu::config(), &args)?;
+    for note in notes {
         eprintln!("{note}");
     }
-    let cfg = rs.config(&base);
     let mut files = Broad::load(&Broad::dir())?;
     files.extend(RepoImu::load(&RepoImu::dir())?);
     if let Ok(prefix) = std::env::var("WINDOWS") {

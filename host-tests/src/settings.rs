@@ -415,10 +415,33 @@ pub fn device_form(base: &ReplayConfig) -> PipelineSettings {
     ps
 }
 
+/// `base` with `NAME=VALUE` settings in the device's language on top (the examples'
+/// arguments), and the notes to print about them (retired or overridden names).
+pub fn with_assignments<S: AsRef<str>>(
+    base: &ReplayConfig,
+    texts: &[S],
+) -> Result<(ReplayConfig, Vec<String>), String> {
+    let mut rs = ReplaySettings::new(device_form(base));
+    for text in texts {
+        rs.apply_given(&parse_assignment(text.as_ref())?);
+    }
+    Ok((rs.config(base), rs.notes()))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use ekf_core::Vec3;
+
+    /// The examples' arguments: each setting applied on top of the base, a bad one refused.
+    #[test]
+    fn assignments_apply_on_top_of_the_base() {
+        let base = ReplayConfig::default();
+        let (cfg, _) = with_assignments(&base, &["init.window=5"]).unwrap();
+        assert_eq!(cfg.settings.init.window_s, 5.0);
+        assert_eq!(with_assignments(&base, &[] as &[&str]).unwrap().0.settings, base.settings);
+        assert!(with_assignments(&base, &["init.window=x"]).is_err());
+    }
 
     #[test]
     fn the_device_defaults_are_the_replay_defaults() {
