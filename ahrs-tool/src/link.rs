@@ -9,14 +9,14 @@ use std::{
 use inemo_ahrs::nmea;
 use serialport::SerialPort;
 
-/// Wrap a command body (`VER`, `SET,gate.jump,0.08`) as `$PINAC,<body>*hh\r\n`.
+/// Wrap a command body (`VER`, `SET,mag.norm_tolerance,0.08`) as `$PINAC,<body>*hh\r\n`.
 pub fn command_line(body: &str) -> String {
     let inner = format!("PINAC,{body}");
     format!("${inner}*{:02X}\r\n", nmea::checksum(inner.as_bytes()))
 }
 
-/// Join command-line words into a command body: words are joined with `,` (so `SET gate.jump
-/// 0.08` and `SET,gate.jump,0.08` give the same command); a leading `$PINAC,` is dropped.
+/// Join command-line words into a command body: words are joined with `,` (so `SET mag.norm_tolerance
+/// 0.08` and `SET,mag.norm_tolerance,0.08` give the same command); a leading `$PINAC,` is dropped.
 pub fn command_body(words: &[String]) -> String {
     let joined = words.join(",");
     let joined = joined.strip_prefix("$PINAC,").unwrap_or(&joined);

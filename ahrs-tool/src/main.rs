@@ -56,7 +56,7 @@ enum Cmd {
         #[arg(long, value_parser = seconds_arg)]
         seconds: Option<f64>,
     },
-    /// Send one command (`VER`, `GET gate.jump`, `SET,gate.jump,0.08`) and print the reply;
+    /// Send one command (`VER`, `GET mag.norm_tolerance`, `SET,mag.norm_tolerance,0.08`) and print the reply;
     /// `LIST` alone lists every setting: name, value, unit and range.
     /// Exit status: 0 OK, 1 ERR reply, 2 no reply or I/O error.
     Send {

@@ -42,14 +42,14 @@ fn stderr(o: &Output) -> String {
 #[test]
 fn settings_get_writes_a_file_that_put_sends_back() {
     let emu = Emulator::start(&[]);
-    emu.send_ok(&["SET", "gate.jump", "0.3"]);
+    emu.send_ok(&["SET", "mag.norm_tolerance", "0.3"]);
     emu.send_ok(&["SET", "axes.gyro", "y,x,-z"]);
     let dir = tempfile::tempdir().unwrap();
     let file = dir.path().join("device.txt");
     let o = emu.settings("get", &["--out", file.to_str().unwrap()]);
     assert!(o.status.success(), "{}", stderr(&o));
     let text = std::fs::read_to_string(&file).unwrap();
-    assert!(text.lines().any(|l| l == "gate.jump=0.3"), "{text}");
+    assert!(text.lines().any(|l| l == "mag.norm_tolerance=0.3"), "{text}");
     assert!(text.lines().any(|l| l == "axes.gyro=y,x,-z"), "{text}");
     // Every setting of the registry, each once, and the host reads the file.
     let parsed = read_settings_file(&file).expect("the host reads the device's file");
@@ -65,15 +65,17 @@ fn settings_get_writes_a_file_that_put_sends_back() {
 
     // Back to the defaults, then the file restores the device's values.
     emu.send_ok(&["RESET"]);
-    assert!(emu.send_ok(&["GET", "gate.jump"]).contains("OK,GET,gate.jump,0.05*"));
+    assert!(emu
+        .send_ok(&["GET", "mag.norm_tolerance"])
+        .contains("OK,GET,mag.norm_tolerance,0.15*"));
     let o = emu.settings("put", &[file.to_str().unwrap()]);
     assert!(o.status.success(), "{}", stderr(&o));
-    assert!(emu.send_ok(&["GET", "gate.jump"]).contains("OK,GET,gate.jump,0.3*"));
+    assert!(emu.send_ok(&["GET", "mag.norm_tolerance"]).contains("OK,GET,mag.norm_tolerance,0.3*"));
     assert!(emu.send_ok(&["GET", "axes.gyro"]).contains("OK,GET,axes.gyro,y,x,-z*"));
 
     // A value the device would refuse: refused here, naming the line, and nothing sent.
     let bad = dir.path().join("bad.txt");
-    std::fs::write(&bad, "# try\ngate.jump=0.2\nlever.r=0,0,20\n").unwrap();
+    std::fs::write(&bad, "# try\nmag.norm_tolerance=0.2\nlever.r=0,0,20\n").unwrap();
     let o = emu.settings("put", &[bad.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(2));
     let err = stderr(&o);
@@ -81,13 +83,13 @@ fn settings_get_writes_a_file_that_put_sends_back() {
         err.trim_end(),
         format!("ahrs-tool: {} line 3: lever.r=0,0,20: range: valid -10 to 10 m", bad.display())
     );
-    assert!(emu.send_ok(&["GET", "gate.jump"]).contains("OK,GET,gate.jump,0.3*"));
+    assert!(emu.send_ok(&["GET", "mag.norm_tolerance"]).contains("OK,GET,mag.norm_tolerance,0.3*"));
 }
 
 #[test]
 fn a_log_records_its_settings_and_the_replay_applies_no_lever_arm_twice() {
     let emu = Emulator::start(&["--scenario", "coupled"]);
-    emu.send_ok(&["SET", "gate.jump", "0.3"]);
+    emu.send_ok(&["SET", "mag.norm_tolerance", "0.3"]);
     emu.send_ok(&["SET", "lever.r", "1,-0.5,0.2"]);
     let dir = tempfile::tempdir().unwrap();
     let csv = dir.path().join("dive.csv");
@@ -106,7 +108,7 @@ fn a_log_records_its_settings_and_the_replay_applies_no_lever_arm_twice() {
     let mut rs = ReplaySettings::new(device_form(&base));
     rs.apply_trace(&meta, "dive.csv").unwrap();
     let cfg = rs.config(&base);
-    assert_eq!(cfg.settings.gate.jump_g, 0.3);
+    assert_eq!(cfg.settings.mag.norm_tolerance, 0.3);
     assert_eq!(cfg.conditioning.lever_arm, ekf_core::lever_arm::LeverArm::NONE);
     // Without the header's word the device's arm would have gone in a second time.
     let mut blind = ReplaySettings::new(device_form(&base));
@@ -191,7 +193,7 @@ fn device_estimates(path: &std::path::Path) -> std::collections::HashMap<String,
 /// ±5e-6 rad/s, ±5e-5 m/s²) moved the replay by up to 0.038° there: allowed 0.005° + 0.04° in
 /// the first 2 s after the window. The faults this guards against cost more (tried by hand,
 /// on 30 s logs): a device that does not restart 1.3°, a second lever arm in the replay 0.048°,
-/// the header's `ekf.accel_var_scale` left out 0.050°, its `init.yaw0` left out 30°.
+/// the header's accelerometer variance (`ekf.accel_var_scale` 4, now `noise.accel_var` ×4) left out 0.050°, its `init.yaw0` left out 30°.
 #[test]
 fn a_restarted_log_replays_to_the_devices_own_estimates() {
     use ekf_core::{conditioning::Conditioner, Euler, Flags, Quaternion};
@@ -201,7 +203,7 @@ fn a_restarted_log_replays_to_the_devices_own_estimates() {
     // Settings that matter: a lever arm (applied once, by the device), the accelerometer's
     // weight and an initial heading the replay must take from the log's header.
     emu.send_ok(&["SET", "lever.r", "0.8,-0.4,0.3"]);
-    emu.send_ok(&["SET", "ekf.accel_var_scale", "4"]);
+    emu.send_ok(&["SET", "noise.accel_var", "9.504e-6"]);
     emu.send_ok(&["SET", "init.yaw0", "30"]);
     let dir = tempfile::tempdir().unwrap();
     let csv = dir.path().join("dive.csv");

@@ -63,12 +63,12 @@ fn a_refused_setting_puts_back_the_ones_set_before_it() {
     let (mut master, slave_port) = TTYPort::pair().expect("a pseudo-terminal pair");
     master.set_timeout(Duration::from_secs(20)).unwrap();
     let slave = slave_port.name().expect("the slave's path");
-    let old = vec![("gate.jump", "0.05"), ("rest.block", "2"), ("mag.declination", "0")];
+    let old = vec![("mag.norm_tolerance", "0.15"), ("rest.block", "2"), ("mag.declination", "0")];
     let bodies = device(master, old, "mag.declination");
     let dir = std::env::temp_dir().join(format!("ahrs-tool-restore-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let file = dir.join("board.txt");
-    std::fs::write(&file, "gate.jump=0.1\nrest.block=3\nmag.declination=5\n").unwrap();
+    std::fs::write(&file, "mag.norm_tolerance=0.1\nrest.block=3\nmag.declination=5\n").unwrap();
     let out = Command::new(BIN)
         .args(["settings", "put"])
         .arg(&slave)
@@ -82,15 +82,15 @@ fn a_refused_setting_puts_back_the_ones_set_before_it() {
     assert_eq!(
         seen,
         [
-            "GET,gate.jump",
+            "GET,mag.norm_tolerance",
             "GET,rest.block",
             "GET,mag.declination",
-            "SET,gate.jump,0.1",
+            "SET,mag.norm_tolerance,0.1",
             "SET,rest.block,3",
             "SET,mag.declination,5",
             // Put back, latest first.
             "SET,rest.block,2",
-            "SET,gate.jump,0.05",
+            "SET,mag.norm_tolerance,0.15",
         ]
     );
     drop(slave_port);

@@ -1,6 +1,7 @@
 //! The main estimator: a quaternion EKF with gyro-bias states, accelerometer tilt correction
 //! with yaw-split, rest detection (bias re-estimation and yaw hold), constant-rate yaw drift
-//! compensation, the accelerometer gate, and an optional magnetometer heading update.
+//! compensation, the source's accelerometer magnitude gate (off by default), and an optional
+//! magnetometer heading update.
 //!
 //! State: unit quaternion `q` (body FRD → NED) and gyro bias `b` (rad/s, body) — the source's
 //! seven-state model — estimated in error-state (multiplicative) form: the covariance is kept
@@ -13,7 +14,6 @@ use crate::{
     covariance::{Cov6, ProcessNoise, YawRow},
     fcmp,
     filter::AttitudeFilter,
-    gate::AccelGate,
     init::{self, InitStep, Initializer},
     mathf,
     motion::MotionLevel,
@@ -61,7 +61,6 @@ pub struct Ekf {
     bias: Vec3,
     p: Cov6,
     init: Option<Initializer>,
-    gate: AccelGate,
     rest: RestDetector,
     /// Attitude at the start of the current rest block.
     block_q: Quaternion,
@@ -78,7 +77,7 @@ pub struct Ekf {
     /// Process noise densities, from the settings.
     noise: ProcessNoise,
     /// Variance of the tilt measurement's two components (NED x, y), rad²: the accelerometer's
-    /// noise (`noise.accel_var · accel_var_scale` per sample at `noise.accel_ref_rate`, scaled
+    /// noise (`noise.accel_var` per sample at `noise.accel_ref_rate`, scaled
     /// to the sample rate) and the gyro's walk over the low-pass's current delay about that
     /// axis; recomputed every sample.
     accel_var: [f32; 2],
@@ -112,7 +111,16 @@ pub struct Ekf {
     /// the mean vertical is young, the accelerometer's corrections since have no component
     /// along it (`accel_update`).
     bias_ref: Vec3,
+    /// Time since the accelerometer last corrected the tilt, s.
+    unused_for: f32,
 }
+
+/// `ACCEL_REJECT_LONG` once the accelerometer has not corrected the tilt for longer than this,
+/// s: the gyros' walk alone then reaches 0.25° per axis on the board's x/y gyros
+/// (`√(ψ·t)`, ψ = 0.306 (°/s)² / 50 Hz), and the marine sentences stop reporting roll and pitch
+/// (`pipeline::tilt_valid`). A status threshold, not a filter setting: nothing the filter
+/// computes depends on it.
+pub const LONG_REJECT_S: f32 = 10.0;
 
 impl Ekf {
     /// A new filter, starting its initialisation window.
@@ -123,7 +131,6 @@ impl Ekf {
             bias: settings.init.gyro_bias,
             p: Self::initial_cov(&settings),
             init: Some(Initializer::new(&settings)),
-            gate: AccelGate::new(settings.gate),
             rest: RestDetector::new(settings.rest),
             block_q: Quaternion::IDENTITY,
             pending_yaw: 0.0,
@@ -139,7 +146,7 @@ impl Ekf {
                     bias_random_walk: settings.ekf.bias_random_walk,
                 }
             },
-            accel_var: [settings.noise.accel_var * settings.ekf.accel_var_scale; 2],
+            accel_var: [settings.noise.accel_var; 2],
             rate_dt: 0,
             moving_start: false,
             lp: TiltLowPass::new(),
@@ -154,6 +161,7 @@ impl Ekf {
             mean_t: 0.0,
             mean_k: 1.0,
             bias_ref: settings.init.gyro_bias,
+            unused_for: 0.0,
         }
     }
 
@@ -216,7 +224,6 @@ impl Ekf {
         self.bias_ref = self.bias;
         self.p = Self::initial_cov(&self.settings);
         self.init = None;
-        self.gate.reset();
         self.rest.reset();
         self.block_q = self.q;
         self.pending_yaw = 0.0;
@@ -227,6 +234,7 @@ impl Ekf {
         self.mean_down = r[2];
         self.mean_t = 0.0;
         self.mean_k = 1.0;
+        self.unused_for = 0.0;
     }
 
     /// How the covariance treats the yaw error: untracked when nothing observes it (yaw-split
@@ -337,7 +345,7 @@ impl Ekf {
             self.lp.set_rate(dt, tau);
             self.tau = tau;
         }
-        let white = self.var_ps * self.settings.ekf.accel_var_scale;
+        let white = self.var_ps;
         let k = 0.75 * tau * tau / dt;
         self.accel_var = [white + k * psd[0], white + k * psd[1]];
         self.lp.push(an);
@@ -468,7 +476,7 @@ impl Ekf {
         let free = [false, false, true, true, true, true];
         let saved = self.p;
         match self.p.update_scalar(2, z, ms.heading_sigma * ms.heading_sigma, free) {
-            Some((dx, nis)) if nis <= self.settings.gate.innovation_chi2 => {
+            Some((dx, _)) => {
                 self.rotate_yaw(dx[2]);
                 self.external_yaw += dx[2];
                 let db = Vec3::new(dx[3], dx[4], dx[5]);
@@ -599,7 +607,7 @@ impl AttitudeFilter for Ekf {
         let accel = c.accel_g;
 
         if let Some(init) = self.init.as_mut() {
-            match init::feed(init, &mut self.gate, &c) {
+            match init::feed(init, self.settings.gate.norm_tolerance, &c) {
                 InitStep::Pending(q) => {
                     self.q = q;
                     if let Some((a, _)) = accel {
@@ -667,6 +675,15 @@ impl AttitudeFilter for Ekf {
                 core::array::from_fn(|i| r[i][0] * v.x + r[i][1] * v.y + r[i][2] * v.z)
             });
             flags |= self.accel_update(c.dt_rate, a, n, &r, dth);
+        }
+        if flags.contains(Flags::ACCEL_USED) {
+            self.unused_for = 0.0;
+        } else {
+            // Gated by the source's gate, or no valid sample: tilt rests on the gyros.
+            self.unused_for += c.dt_rate;
+            if fcmp::gt(self.unused_for, LONG_REJECT_S) {
+                flags |= Flags::ACCEL_REJECT_LONG;
+            }
         }
         if self.settings.mag.enabled {
             if let Some(m) = sample.mag {
@@ -811,15 +828,15 @@ mod tests {
         );
     }
 
-    /// The accelerometer's white-noise variance per sample follows `dt` (constant density,
-    /// times `accel_var_scale`), but only once `dt` has moved by more than [`VAR_DT_ULPS`]
+    /// The accelerometer's white-noise variance per sample follows `dt` (constant density),
+    /// but only once `dt` has moved by more than [`VAR_DT_ULPS`]
     /// (the firmware's measured `dt` jitters by a few cycles): exactly 2¹⁵ units in the last
     /// place keep it, one more recomputes it. On a still board the samples are used raw
     /// (τ = 0) and that is the whole measurement variance.
     #[test]
     fn the_measurement_variance_follows_the_sample_rate_past_the_jitter_allowance() {
         let mut s = Settings::default();
-        s.ekf.accel_var_scale = 4.0;
+        s.noise.accel_var *= 4.0;
         let mut f = quiet_filter(s);
         let level = Vec3::new(0.0, 0.0, -1.0);
         // One second for the motion statistic to learn that the board is still.

@@ -95,18 +95,20 @@ impl Default for InitSettings {
     }
 }
 
-/// Accelerometer gating: which samples may correct tilt.
+/// Accelerometer gating: which samples may correct tilt. The EKF (the firmware's filter) reads
+/// `norm_tolerance` alone, in its update and its start window; the other five are the
+/// comparison filters' (UKF, SS-UKF, complementary, gyro-only: `gate.rs`), fixed at their
+/// defaults in the firmware (issue #36 retired them from the registry).
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct GateSettings {
-    /// Magnitude gate: skip the update when `| |a|/g − 1 |` exceeds this, dimensionless.
-    /// Default 1 (off in practice: only beyond 2 g). 0.05 is the source's 1 ± 0.05 g gate; on
-    /// real motion it rejects most samples, and the EKF's low-pass in motion replaces it
-    /// (`docs/filter.md`).
+    /// Magnitude gate: skip the update when `| |a|/g − 1 |` exceeds this, dimensionless; the
+    /// start window leaves such samples out of its tilt average. Default 1 (off in practice:
+    /// only beyond 2 g). 0.05 is the source's 1 ± 0.05 g gate; on real motion it rejects most
+    /// samples, and the EKF's low-pass in motion replaces it (`docs/filter.md`).
     pub norm_tolerance: f32,
     /// Knock detection by jump: skip when the accelerometer moved by more than this between
-    /// two consecutive samples, g (the EKF adds 3 standard deviations of the current motion
-    /// level). Default 0.05 g.
+    /// two consecutive samples, g. Default 0.05 g.
     pub jump_g: f32,
     /// Knock detection by innovation (filters with an innovation covariance): skip when the
     /// normalised innovation squared exceeds this (χ², 2 degrees of freedom). Default 10⁶
@@ -267,10 +269,6 @@ pub struct EkfSettings {
     /// Yaw-split: accelerometer corrections never change yaw. Default true (the source's
     /// board implementation); false reproduces its first implementation.
     pub yaw_split: bool,
-    /// Accelerometer measurement variance as a multiple of `NoiseSettings::accel_var`; raise it
-    /// to cover vibration and unmodelled accelerations. Default 1 (the datasheet noise: the
-    /// lowest tilt error on every simulated scenario, see `docs/accuracy.md`).
-    pub accel_var_scale: f32,
     /// Gyro-bias random walk, (rad/s)²/s per axis. Default (0.002 °/s)²/s.
     pub bias_random_walk: f32,
     /// Constant yaw drift subtracted from the yaw integral, rad/s (the source's
@@ -308,7 +306,6 @@ impl Default for EkfSettings {
     fn default() -> Self {
         EkfSettings {
             yaw_split: true,
-            accel_var_scale: 1.0,
             bias_random_walk: deg(0.002) * deg(0.002),
             yaw_drift_rate: 0.0,
             initial_tilt_sigma: deg(2.0),

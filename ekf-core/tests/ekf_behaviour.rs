@@ -144,8 +144,6 @@ fn gate_skips_extra_acceleration_and_resumes_after() {
     // (atan(0.06/0.92) = 3.7° if fully believed); the gate keeps it below 0.8°.
     let mut s = Settings::default();
     s.gate.norm_tolerance = 10.0;
-    s.gate.jump_g = 10.0;
-    s.gate.innovation_chi2 = f32::INFINITY;
     let mut f = started(s, truth, Sensors::board().gyro_bias);
     let mut max_err: f32 = 0.0;
     for (k, smp) in run.samples.iter().enumerate() {
@@ -154,6 +152,36 @@ fn gate_skips_extra_acceleration_and_resumes_after() {
     }
     // Low-passed over its 3 s, the 3 s push reaches the tilt as more than half of it.
     assert!(to_deg(max_err) > 2.0, "{}°", to_deg(max_err));
+}
+
+/// With the source's gate a sustained push keeps the accelerometer out: after
+/// `ekf::LONG_REJECT_S` (10 s) the filter says so (`ACCEL_REJECT_LONG`, which takes roll and
+/// pitch out of the marine sentences), and not before; the first sample used clears it.
+#[test]
+fn a_long_rejection_is_flagged_and_clears_when_the_accelerometer_returns() {
+    let truth = Euler::new(deg(2.0), deg(-3.0), 0.0).to_quaternion();
+    let extra = Vec3::new(0.06, 0.0, 0.08) * GRAVITY;
+    let run = simulate(truth, 40.0, 50.0, Sensors::board(), 7, |t| {
+        (Vec3::ZERO, if (20.0..32.0).contains(&t) { extra } else { Vec3::ZERO })
+    });
+    let gated = Settings { gate: ekf_core::settings::GateSettings::SOURCE, ..Settings::default() };
+    let mut f = started(gated, truth, Sensors::board().gyro_bias);
+    let (mut first, mut last) = (None, None);
+    for (k, s) in run.samples.iter().enumerate() {
+        let t = (k + 1) as f32 * 0.02;
+        if f.update(s).contains(Flags::ACCEL_REJECT_LONG) {
+            first.get_or_insert(t);
+            last = Some(t);
+        }
+    }
+    let (first, last) = (first.expect("never flagged"), last.unwrap());
+    // The push's samples are gated from t = 20 s (a sample's time is its interval's start);
+    // flagged 10 s later.
+    assert!((29.9..30.1).contains(&first), "flagged from {first} s");
+    assert!((31.9..32.1).contains(&last), "flagged until {last} s");
+    // Off by default: the same run, nothing gated, never flagged.
+    let mut f = started(Settings::default(), truth, Sensors::board().gyro_bias);
+    assert!(run.samples.iter().all(|s| !f.update(s).contains(Flags::ACCEL_REJECT_LONG)));
 }
 
 #[test]

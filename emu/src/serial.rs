@@ -258,13 +258,15 @@ mod tests {
             let depth = text.lines().find(|l| l.starts_with("$PINAH")).unwrap();
             assert_eq!(depth.split(',').nth(8), Some("2.5"), "{depth}");
             assert_eq!(fw.trace_index(), 50);
-            let set = command(&mut fw, "SET,gate.jump,0.07");
-            assert!(set.contains("OK,SET,gate.jump,0.07*"), "{set}");
+            let set = command(&mut fw, "SET,mag.norm_tolerance,0.07");
+            assert!(set.contains("OK,SET,mag.norm_tolerance,0.07*"), "{set}");
             assert!(command(&mut fw, "SAVE").starts_with("$PINAR,OK,SAVE,A,1*"));
             assert!(command(&mut fw, "FLY").contains("ERR,?,unknown-command"));
         }
         let mut fw = SerialFirmware::boot(&mut flash, "PIN");
-        assert!(command(&mut fw, "GET,gate.jump").contains("OK,GET,gate.jump,0.07*"));
+        assert!(
+            command(&mut fw, "GET,mag.norm_tolerance").contains("OK,GET,mag.norm_tolerance,0.07*")
+        );
         assert!(command(&mut fw, "STATUS").starts_with("$PINAR,OK,STATUS,A,1,PIN,"));
     }
 

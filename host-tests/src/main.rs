@@ -92,7 +92,7 @@ enum Cmd {
         #[arg(long, default_value = "ekf", value_parser = parse_filter)]
         filter: FilterKind,
         /// A setting in the device's language, `NAME=VALUE` with the registry's names and
-        /// units (`gate.jump=0.1`, `lever.r=0,0,0`; docs/commands.md, docs/replay.md);
+        /// units (`mag.norm_tolerance=0.1`, `lever.r=0,0,0`; docs/commands.md, docs/replay.md);
         /// repeatable, applied in order after `--settings`.
         #[arg(long = "set", value_name = "NAME=VALUE")]
         set: Vec<String>,

@@ -3,7 +3,7 @@
 //! (`inemo_ahrs::registry`), so a value the device would refuse is refused here, with the
 //! reason word of the device's `ERR,SET` reply (`unknown-setting`, `args`, `type`, `range`).
 //!
-//! A settings file holds one `NAME=VALUE` per line (`lever.r=0,0,0`, `gate.jump=0.1`); blank
+//! A settings file holds one `NAME=VALUE` per line (`lever.r=0,0,0`, `mag.norm_tolerance=0.1`); blank
 //! lines and lines starting with `#` are comments; spaces around the name, the `=` and the
 //! fields are ignored. `ahrs-tool settings get` writes such a file from a device and
 //! `ahrs-tool settings put` sends one back; `host-tests replay --settings` reads it.
@@ -18,7 +18,9 @@ use ekf_core::lever_arm::LeverArm;
 use inemo_ahrs::command::Reason;
 use inemo_ahrs::nmea::Sentence;
 use inemo_ahrs::pipeline::PipelineSettings;
-use inemo_ahrs::registry::{self, number, Kind, Part, Setting, Value, ValueError, SETTINGS};
+use inemo_ahrs::registry::{
+    self, number, Kind, Part, Retired, Setting, Value, ValueError, SETTINGS,
+};
 
 use crate::config::ReplayConfig;
 
@@ -80,18 +82,19 @@ pub fn refusal(s: &Setting, e: ValueError) -> String {
 }
 
 /// Parse `NAME=VALUE` (spaces around the parts ignored) and check it with the registry.
-/// Errors are one line: `gate.jump=20: range: valid 0.001 to 16 g`.
+/// Errors are one line: `mag.norm_tolerance=20: range: valid 0 to 1`.
 pub fn parse_assignment(text: &str) -> Result<Assignment, String> {
     let text = text.trim();
     let Some((name, value)) = text.split_once('=') else {
-        return Err(format!("{text:?}: expected NAME=VALUE (e.g. gate.jump=0.1)"));
+        return Err(format!("{text:?}: expected NAME=VALUE (e.g. mag.norm_tolerance=0.1)"));
     };
     let (name, value) = (name.trim(), value.trim());
     let setting = registry::find(name).ok_or_else(|| match registry::retired(name) {
         Some(r) => format!(
-            "{r}: {}: {}; a log or settings file that names it replays without it",
+            "{}: {}: {}; a log or settings file that names it replays without it",
+            r.name,
             Reason::UnknownSetting.as_str(),
-            registry::RETIRED_WHY
+            r.why
         ),
         None => format!(
             "{name}: {}: no such setting (the names are listed in docs/commands.md)",
@@ -120,21 +123,21 @@ pub struct SettingsText {
     pub lines: Vec<(usize, Assignment)>,
     /// The lines that name a retired setting (`registry::RETIRED`), skipped as the firmware
     /// skips them in a saved record: one warning each (`retired_warning`).
-    pub retired: Vec<(usize, &'static str)>,
+    pub retired: Vec<(usize, &'static Retired)>,
 }
 
 /// The stderr warning for a retired setting skipped at `origin`'s `line`.
-pub fn retired_warning(origin: &str, line: usize, name: &str) -> String {
-    format!("{origin} line {line}: {name} skipped: {}", registry::RETIRED_WHY)
+pub fn retired_warning(origin: &str, line: usize, r: &Retired) -> String {
+    format!("{origin} line {line}: {} skipped: {}", r.name, r.why)
 }
 
-/// The name of `NAME=VALUE`, when it is a retired setting's.
-fn retired_name(text: &str) -> Option<&'static str> {
+/// The retired setting `NAME=VALUE` names, if any.
+fn retired_name(text: &str) -> Option<&'static Retired> {
     text.split_once('=').and_then(|(name, _)| registry::retired(name.trim()))
 }
 
 /// The lines of a settings file: comments and blank lines skipped, a retired setting's line
-/// skipped and listed. Errors name the line: `settings.txt line 3: gate.jump=abc: type: ...`.
+/// skipped and listed. Errors name the line: `settings.txt line 3: mag.norm_tolerance=abc: type: ...`.
 pub fn parse_settings_text(text: &str, origin: &str) -> Result<SettingsText, String> {
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let mut out = SettingsText { lines: Vec::new(), retired: Vec::new() };
@@ -158,8 +161,8 @@ pub fn read_settings_file(path: &Path) -> Result<Vec<(usize, Assignment)>, Strin
     let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
     let origin = path.display().to_string();
     let parsed = parse_settings_text(&text, &origin)?;
-    for (line, name) in &parsed.retired {
-        eprintln!("{}", retired_warning(&origin, *line, name));
+    for (line, r) in &parsed.retired {
+        eprintln!("{}", retired_warning(&origin, *line, r));
     }
     Ok(parsed.lines)
 }
@@ -309,7 +312,7 @@ pub struct ReplaySettings {
     /// The trace says its samples already had the lever arm.
     pub lever_applied: bool,
     /// Retired settings the trace's header named, skipped (`registry::RETIRED`).
-    pub retired: Vec<&'static str>,
+    pub retired: Vec<&'static Retired>,
 }
 
 impl ReplaySettings {
@@ -379,12 +382,17 @@ impl ReplaySettings {
     /// The stderr notes: what was not applied and why (one line per reason).
     pub fn notes(&self) -> Vec<String> {
         let mut out = Vec::new();
-        if !self.retired.is_empty() {
-            out.push(format!(
-                "trace header: {} skipped: {}",
-                self.retired.join(", "),
-                registry::RETIRED_WHY
-            ));
+        // One line per reason, naming the settings it retired.
+        let mut whys: Vec<&str> = Vec::new();
+        for r in &self.retired {
+            if !whys.contains(&r.why) {
+                whys.push(r.why);
+            }
+        }
+        for why in whys {
+            let names: Vec<&str> =
+                self.retired.iter().filter(|r| r.why == why).map(|r| r.name).collect();
+            out.push(format!("trace header: {} skipped: {why}", names.join(", ")));
         }
         if !self.lever_already.is_empty() {
             out.push(format!(
@@ -457,12 +465,16 @@ mod tests {
     fn values_in_user_units_reach_the_configuration() {
         let base = ReplayConfig::default();
         let mut rs = ReplaySettings::new(device_form(&base));
-        for t in ["gate.jump = 0.1", "lever.r=0,0,0", "init.gyro_bias=1,2,-3", "rest.min_blocks=3"]
-        {
+        for t in [
+            "mag.norm_tolerance = 0.1",
+            "lever.r=0,0,0",
+            "init.gyro_bias=1,2,-3",
+            "rest.min_blocks=3",
+        ] {
             rs.apply_given(&parse_assignment(t).unwrap());
         }
         let c = rs.config(&base);
-        assert_eq!(c.settings.gate.jump_g, 0.1);
+        assert_eq!(c.settings.mag.norm_tolerance, 0.1);
         assert_eq!(c.conditioning.lever_arm.r, Vec3::ZERO);
         // Degrees per second on the wire, rad/s inside.
         let b = c.settings.init.gyro_bias;
@@ -474,17 +486,20 @@ mod tests {
     #[test]
     fn refusals_use_the_device_words() {
         let e = |t: &str| parse_assignment(t).unwrap_err();
-        assert_eq!(e("gate.jump=20"), "gate.jump=20: range: valid 0.001 to 16 g");
-        assert_eq!(e("gate.jump=abc"), "gate.jump=abc: type: expected f32: one number");
+        assert_eq!(e("mag.norm_tolerance=20"), "mag.norm_tolerance=20: range: valid 0 to 1");
+        assert_eq!(
+            e("mag.norm_tolerance=abc"),
+            "mag.norm_tolerance=abc: type: expected f32: one number"
+        );
         assert_eq!(
             e("lever.r=1,2"),
             "lever.r=1,2: args: expected 3 comma-separated values (f32x3: three numbers x,y,z)"
         );
         assert!(e("gate.jmp=1").starts_with("gate.jmp: unknown-setting"), "{}", e("gate.jmp=1"));
         assert!(e("axes.gyro=x,x,z").starts_with("axes.gyro=x,x,z: range:"));
-        assert!(e("gate.jump").contains("expected NAME=VALUE"));
+        assert!(e("mag.norm_tolerance").contains("expected NAME=VALUE"));
         // The issue's examples: negative variance, NaN, infinity, 1e300.
-        for t in ["noise.accel_var=-1", "ekf.accel_var_scale=nan", "gate.norm_tolerance=inf"] {
+        for t in ["noise.accel_var=-1", "ekf.bias_random_walk=nan", "gate.norm_tolerance=inf"] {
             assert!(parse_assignment(t).is_err(), "{t}");
         }
         assert!(e("init.window=1e300").contains("range"), "{}", e("init.window=1e300"));
@@ -493,7 +508,7 @@ mod tests {
     #[test]
     fn a_file_round_trips_and_errors_name_the_line() {
         let mut s = PipelineSettings::default();
-        registry::find("gate.jump").unwrap().set(&mut s, Value::F32(0.25));
+        registry::find("mag.norm_tolerance").unwrap().set(&mut s, Value::F32(0.25));
         let text = settings_file_text(&s, &["from a test".into()]);
         assert!(text.starts_with("# from a test\nnoise.gyro_var=0.337,0.275,0.00419\n"), "{text}");
         let mut back = PipelineSettings::default();
@@ -502,14 +517,17 @@ mod tests {
         }
         // The same file again (values travel as the device prints them: 7 digits).
         assert_eq!(settings_file_text(&back, &["from a test".into()]), text);
-        assert_eq!(back.filter.gate.jump_g, 0.25);
-        let e = parse_settings_text("# c\n\ngate.jump=0.1\ngate.jump=x\n", "s.txt").unwrap_err();
-        assert_eq!(e, "s.txt line 4: gate.jump=x: type: expected f32: one number");
+        assert_eq!(back.filter.mag.norm_tolerance, 0.25);
+        let e =
+            parse_settings_text("# c\n\nmag.norm_tolerance=0.1\nmag.norm_tolerance=x\n", "s.txt")
+                .unwrap_err();
+        assert_eq!(e, "s.txt line 4: mag.norm_tolerance=x: type: expected f32: one number");
     }
 
-    /// Issue #39, point 8: the four settings session 13 retired (`registry::RETIRED`), named in
-    /// an old log's header or a settings file, are skipped with a warning that names them, as
-    /// the firmware skips their ids in a saved record; `--set` with one says it was retired.
+    /// Issue #39, point 8: the settings sessions 13 and 19 retired (`registry::RETIRED`), named
+    /// in an old log's header or a settings file, are skipped with a warning that names them
+    /// and says why, as the firmware skips their ids in a saved record; `--set` with one says
+    /// it was retired.
     #[test]
     fn retired_settings_are_skipped_with_a_warning_and_refused_by_name() {
         // `--set` (and any single assignment): refused, and the reason says retired.
@@ -521,23 +539,25 @@ mod tests {
         let e = parse_assignment("ekf.motion_scales=1").unwrap_err();
         assert!(e.contains("no such setting"), "{e}");
         // A settings file: the retired lines skipped and listed, the rest applied.
-        let text = "gate.jump=0.2\nekf.vib_time_constant=1.5\n# c\nekf.motion_time_constant=1\n";
+        let text =
+            "mag.norm_tolerance=0.2\nekf.vib_time_constant=1.5\n# c\nekf.motion_time_constant=1\n";
         let parsed = parse_settings_text(text, "old.txt").unwrap();
         assert_eq!(parsed.lines.len(), 1);
-        assert_eq!(parsed.lines[0].1.setting.name, "gate.jump");
-        assert_eq!(
-            parsed.retired,
-            vec![(2, "ekf.vib_time_constant"), (4, "ekf.motion_time_constant")]
-        );
-        let w = retired_warning("old.txt", 2, "ekf.vib_time_constant");
+        assert_eq!(parsed.lines[0].1.setting.name, "mag.norm_tolerance");
+        let names: Vec<(usize, &str)> = parsed.retired.iter().map(|(l, r)| (*l, r.name)).collect();
+        assert_eq!(names, vec![(2, "ekf.vib_time_constant"), (4, "ekf.motion_time_constant")]);
+        let w = retired_warning("old.txt", 2, parsed.retired[0].1);
         assert!(w.starts_with("old.txt line 2: ekf.vib_time_constant skipped: retired"), "{w}");
         // An old log's header: the retired settings skipped and named in the notes, the others
         // applied.
         let meta = TraceMeta {
             settings: vec![
-                (2, "gate.jump=0.3".into()),
+                (2, "mag.norm_tolerance=0.3".into()),
                 (3, "ekf.motion_scale=0.001".into()),
-                (4, "ekf.vib_rate=15".into()),
+                (4, "gate.jump=0.05".into()),
+                (5, "ekf.vib_rate=15".into()),
+                (6, "ekf.accel_var_scale=1".into()),
+                (7, "gate.holdoff=0.1".into()),
             ],
             ..TraceMeta::default()
         };
@@ -545,11 +565,25 @@ mod tests {
         let mut rs = ReplaySettings::new(device_form(&base));
         rs.apply_trace(&meta, "old.csv").unwrap();
         assert_eq!(rs.from_trace, 1);
-        assert_eq!(rs.config(&base).settings.gate.jump_g, 0.3);
+        assert_eq!(rs.config(&base).settings.mag.norm_tolerance, 0.3);
         let notes = rs.notes().join("\n");
         assert!(
             notes.contains("trace header: ekf.motion_scale, ekf.vib_rate skipped: retired"),
             "{notes}"
+        );
+        // Session 19's (issue #36), one line per reason.
+        assert!(
+            notes.contains("trace header: gate.jump, gate.holdoff skipped: retired by issue #36"),
+            "{notes}"
+        );
+        assert!(
+            notes.contains("trace header: ekf.accel_var_scale skipped: retired by issue #36"),
+            "{notes}"
+        );
+        let e = parse_assignment("gate.innovation_chi2=16").unwrap_err();
+        assert!(
+            e.starts_with("gate.innovation_chi2: unknown-setting: retired by issue #36"),
+            "{e}"
         );
     }
 
@@ -570,14 +604,14 @@ mod tests {
     #[test]
     fn a_log_header_sets_the_device_settings_and_no_second_lever_arm() {
         let mut dev = PipelineSettings::default();
-        registry::find("gate.jump").unwrap().set(&mut dev, Value::F32(0.3));
+        registry::find("mag.norm_tolerance").unwrap().set(&mut dev, Value::F32(0.3));
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("log.csv");
         let mut text = String::from("t,gx,gy,gz,ax,ay,az\n");
         for c in TraceMeta::log_comments(&dev) {
             text.push_str(&format!("# {c}\n"));
         }
-        text.push_str("0,0,0,0,0,0,-9.81\n# setting: gate.jump=0.9\n");
+        text.push_str("0,0,0,0,0,0,-9.81\n# setting: mag.norm_tolerance=0.9\n");
         std::fs::write(&path, text).unwrap();
         let meta = TraceMeta::read(&path).unwrap();
         assert!(meta.lever_applied());
@@ -588,7 +622,7 @@ mod tests {
         rs.apply_given(&parse_assignment("lever.r=1,0,0").unwrap());
         let c = rs.config(&base);
         // The device's value, not the comment after the first data line.
-        assert_eq!(c.settings.gate.jump_g, 0.3);
+        assert_eq!(c.settings.mag.norm_tolerance, 0.3);
         assert_eq!(c.conditioning.lever_arm, LeverArm::NONE);
         assert_eq!(
             rs.notes(),

@@ -158,7 +158,7 @@ fn settings_in_the_device_language_override_and_are_refused_as_the_device_would(
     let est = dir.path().join("est.csv");
     let cfg = dir.path().join("settings.txt");
     // A 5 s window: RMSE now counts rows from t = 5 s (1250 of the 1500 rows).
-    std::fs::write(&cfg, "# a comment\n\ninit.window = 5\nekf.accel_var_scale=20\n").unwrap();
+    std::fs::write(&cfg, "# a comment\n\ninit.window = 5\nnoise.accel_var=4.752e-5\n").unwrap();
     let o = run(&["replay", p(&trace), "--out", p(&est), "--settings", p(&cfg)]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(stdout(&o).contains("over 1250 rows"), "{}", stdout(&o));
@@ -176,23 +176,23 @@ fn settings_in_the_device_language_override_and_are_refused_as_the_device_would(
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(stdout(&o).contains("over 1400 rows"), "{}", stdout(&o));
 
-    std::fs::write(&cfg, "init.window=5\nekf.accel_var_scal=20\n").unwrap();
+    std::fs::write(&cfg, "init.window=5\nnoise.accel_vr=4.752e-5\n").unwrap();
     let est2 = dir.path().join("est2.csv");
     for (args, want) in [
         (
             vec!["--settings", p(&cfg)],
-            format!("error: {} line 2: ekf.accel_var_scal: unknown-setting", p(&cfg)),
+            format!("error: {} line 2: noise.accel_vr: unknown-setting", p(&cfg)),
         ),
         (
-            vec!["--set", "gate.jump=20"],
-            "error: --set gate.jump=20: range: valid 0.001 to 16 g".into(),
+            vec!["--set", "mag.norm_tolerance=20"],
+            "error: --set mag.norm_tolerance=20: range: valid 0 to 1".into(),
         ),
         (vec!["--set", "noise.accel_var=-1"], "error: --set noise.accel_var=-1: range:".into()),
         (vec!["--set", "lever.r=1,2"], "error: --set lever.r=1,2: args: expected 3".into()),
         (vec!["--set", "init.window=1e300"], "error: --set init.window=1e300: range:".into()),
         (
-            vec!["--set", "ekf.accel_var_scale=nan"],
-            "error: --set ekf.accel_var_scale=nan: type:".into(),
+            vec!["--set", "ekf.bias_random_walk=nan"],
+            "error: --set ekf.bias_random_walk=nan: type:".into(),
         ),
     ] {
         let mut a = vec!["replay", p(&trace), "--out", p(&est2)];
@@ -633,7 +633,7 @@ fn a_logged_dive_replays_with_the_device_settings_and_no_second_lever_arm() {
     let trace = simulate(dir.path(), "coupled", "30");
     let dive = dir.path().join("dive.csv");
     let dev = dir.path().join("device.txt");
-    as_logged(&trace, &["gate.jump=0.3", "lever.r=1,-0.5,0.2"], &dive, &dev);
+    as_logged(&trace, &["mag.norm_tolerance=0.3", "lever.r=1,-0.5,0.2"], &dive, &dev);
     let f = |n: &str| dir.path().join(n);
     let o = run(&["replay", p(&dive), "--out", p(&f("a.csv"))]);
     assert!(o.status.success(), "{}", stderr(&o));
@@ -706,9 +706,9 @@ fn the_documented_try_it_on_a_recorded_dive_commands_work() {
         "--out",
         "after.csv",
         "--set",
-        "gate.jump=0.1",
+        "ekf.accel_time_constant=1.5",
         "--set",
-        "ekf.accel_var_scale=20",
+        "noise.accel_var=4.752e-5",
     ]);
     assert!(after.status.success(), "{}", stderr(&after));
     assert!(!stderr(&after).contains("not applied:"), "{}", stderr(&after));

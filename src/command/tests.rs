@@ -93,13 +93,13 @@ fn version_status_and_list() {
     assert_eq!(run(&mut d, &mut f, "PINAC,STATUS").0, "PINAR,OK,STATUS,DEFAULTS,,POR,0001,00,R,,");
     assert_eq!(
         run(&mut d, &mut f, "PINAC,LIST,0").0,
-        "PINAR,OK,LIST,0,76,noise.gyro_var,f32x3,(deg/s)2,1e-6,100"
+        "PINAR,OK,LIST,0,70,noise.gyro_var,f32x3,(deg/s)2,1e-6,100"
     );
-    assert_eq!(run(&mut d, &mut f, "PINAC,LIST,67").0, "PINAR,OK,LIST,67,76,output.prdid,bool,,,");
+    assert_eq!(run(&mut d, &mut f, "PINAC,LIST,61").0, "PINAR,OK,LIST,61,70,output.prdid,bool,,,");
     for i in 0..SETTINGS.len() {
         assert!(run(&mut d, &mut f, &format!("PINAC,LIST,{i}")).0.starts_with("PINAR,OK,LIST,"));
     }
-    assert_eq!(refused(&mut d, &mut f, &cmd("PINAC,LIST,76")), "PINAR,ERR,LIST,range,0,75");
+    assert_eq!(refused(&mut d, &mut f, &cmd("PINAC,LIST,70")), "PINAR,ERR,LIST,range,0,69");
     // Verbs are case-insensitive.
     assert!(run(&mut d, &mut f, "PINAC,ver").0.starts_with("PINAR,OK,VER,"));
     // A reset cause that cannot be sent is shown as `?`.
@@ -191,7 +191,7 @@ fn every_error_names_the_problem_and_changes_nothing() {
         (cmd("PINAC,SET,output.rate,fast"), "PINAR,ERR,SET,type,u16"),
         (cmd("PINAC,SET,output.rate,5.5"), "PINAR,ERR,SET,type,u16"),
         (cmd("PINAC,SET,rest.enabled,yes"), "PINAR,ERR,SET,type,bool"),
-        (cmd("PINAC,SET,gate.jump,1e"), "PINAR,ERR,SET,type,f32"),
+        (cmd("PINAC,SET,mag.norm_tolerance,1e"), "PINAR,ERR,SET,type,f32"),
         (cmd("PINAC,SET,axes.mag,x,y,w"), "PINAR,ERR,SET,type,axes"),
         (cmd("PINAC,SET,output.rate,51"), "PINAR,ERR,SET,range,1,50"),
         (cmd("PINAC,SET,gate.norm_tolerance,-1"), "PINAR,ERR,SET,range,0.001,1"),
@@ -744,7 +744,7 @@ fn print_examples() {
         "PINAC,SET,accel_cal.o,0.01,-0.02,0.03",
         "PINAC,GET,noise.gyro_var",
         "PINAC,SET,output.rate,60",
-        "PINAC,SET,gate.jump,abc",
+        "PINAC,SET,mag.norm_tolerance,abc",
         "PINAC,SET,lever.r,1,2",
         "PINAC,GET,nope",
         "PINAC,FLY",
@@ -821,7 +821,7 @@ fn status_flags_sit_at_their_documented_bits() {
     let mut f = SimFlash::new();
     let mut d = fresh();
     assert_eq!(flags(&mut d, &mut f), "0001", "boot without a record");
-    run(&mut d, &mut f, "PINAC,SET,gate.jump,0.3");
+    run(&mut d, &mut f, "PINAC,SET,mag.norm_tolerance,0.3");
     assert_eq!(flags(&mut d, &mut f), "0003", "a setting changed");
     run(&mut d, &mut f, "PINAC,SAVE");
     assert_eq!(flags(&mut d, &mut f), "0001", "saved; bit 0 tells of the last load");

@@ -230,16 +230,16 @@ impl Flash for Odd {
     }
 }
 
-/// The current record is 566 bytes (`record_size_of_the_current_registry`): a page of
+/// The current record is 524 bytes (`record_size_of_the_current_registry`): a page of
 /// exactly that size takes it, a page two bytes smaller is refused as too small before
 /// anything is written.
 #[test]
 fn a_record_larger_than_the_page_is_refused_before_any_write() {
     let s = variant(5);
-    let mut f = Odd { inner: SimFlash::new(), size: 566, deaf: false };
+    let mut f = Odd { inner: SimFlash::new(), size: 524, deaf: false };
     assert_eq!(save(&mut f, &s), Ok(Saved { page: Page::A, seq: 1 }));
     assert_eq!(load(&f).settings, s);
-    let mut f = Odd { inner: SimFlash::new(), size: 564, deaf: false };
+    let mut f = Odd { inner: SimFlash::new(), size: 522, deaf: false };
     assert_eq!(save(&mut f, &s), Err(SaveError::TooLarge));
     assert_eq!(f.inner.steps, 0);
 }
@@ -277,14 +277,15 @@ fn record_without(settings: &PipelineSettings, missing: &[u16], page: Page, seq:
 
 /// A record saved by the firmware before the motion-adaptive EKF settings (ids 14, 67, 68,
 /// 69; format version 1 then as now): every setting's entry it had, with that firmware's
-/// defaults — the source's gate, 1 ± 0.05 g and χ² 16. It loads in full, the settings it
-/// lacks keep their defaults (counted as missing: 14, 67 and 57, `ekf.gyro_scale_error`; 68
-/// and 69 are retired), and the saved gate stays what was saved.
+/// defaults — the source's gate, 1 ± 0.05 g. It loads in full, the settings it lacks keep their
+/// defaults (counted as missing: 14, 67 and 57, `ekf.gyro_scale_error`; 68 and 69 are retired,
+/// and so are its χ² 16 and the other gate settings but the tolerance: the next test), and the
+/// saved gate stays what was saved.
 #[test]
 fn a_record_from_before_the_new_ekf_settings_loads_with_their_defaults() {
     const NEW: [u16; 3] = [14, 67, 57];
     let mut old = PipelineSettings::default();
-    old.filter.gate = ekf_core::settings::GateSettings::SOURCE;
+    old.filter.gate.norm_tolerance = ekf_core::settings::GateSettings::SOURCE.norm_tolerance;
     old.depth.water_density_kg_m3 = 998.0;
     let f = record_without(&old, &NEW, Page::A, 7);
     let l = load(&f);
@@ -292,33 +293,42 @@ fn a_record_from_before_the_new_ekf_settings_loads_with_their_defaults() {
     assert_eq!((l.skipped, l.missing), (0, NEW.len() as u16));
     assert_eq!(l.settings, old);
     assert_eq!(l.settings.filter.gate.norm_tolerance, 0.05);
-    assert_eq!(l.settings.filter.gate.innovation_chi2, 16.0);
     let d = PipelineSettings::default();
     assert_eq!(l.settings.filter.init.moving_bias_sigma, d.filter.init.moving_bias_sigma);
     assert_eq!(l.settings.filter.ekf.accel_time_constant, d.filter.ekf.accel_time_constant);
     assert_eq!(l.settings.filter.ekf.gyro_scale_error, d.filter.ekf.gyro_scale_error);
 }
 
-/// The settings the fixed low-pass retired, with their flash ids and the values their
-/// firmware saved by default (internal units: s, rad/s, g², s). The ids are never reused.
-const RETIRED: [(u16, &str, f32); 4] = [
-    (58, "ekf.vib_time_constant", 1.5),
-    (59, "ekf.vib_rate", 0.261_799_4), // 15 °/s
-    (68, "ekf.motion_scale", 1e-3),
-    (69, "ekf.motion_time_constant", 1.0),
+/// The retired settings, with their flash ids, the values their firmware saved by default
+/// (internal units: s, rad/s, g², s; g, χ², s, s, s; a factor) and the id each followed in
+/// that firmware's table. The ids are never reused.
+const RETIRED: [(u16, &str, f32, u16); 10] = [
+    (58, "ekf.vib_time_constant", 1.5, 67),
+    (59, "ekf.vib_rate", 0.261_799_4, 58), // 15 °/s
+    (68, "ekf.motion_scale", 1e-3, 59),
+    (69, "ekf.motion_time_constant", 1.0, 68),
+    (21, "gate.jump", 0.05, 20),
+    (22, "gate.innovation_chi2", 1e6, 21),
+    (23, "gate.holdoff", 0.1, 22),
+    (24, "gate.reacquire", 2.0, 23),
+    (25, "gate.long_reject", 10.0, 24),
+    (61, "ekf.accel_var_scale", 1.0, 60),
 ];
 
 /// A record saved by the firmware before the fixed low-pass (format version 1 then as now):
 /// every setting's entry but `ekf.gyro_scale_error` (id 57), its own
-/// `ekf.accel_time_constant` (1.75 s), and the entries of the four settings it had that are
-/// now retired. Those four are skipped, and only those (an id that were reused, or a load
-/// that took an unknown id, would change the count or the settings); every other setting is
-/// kept as saved, `ekf.gyro_scale_error` at its default (the one missing).
+/// `ekf.accel_time_constant` (1.75 s), and the entries of the ten settings it had that are
+/// now retired (issue #26's four, issue #36's six). Those ten are skipped, and only those (an
+/// id that were reused, or a load that took an unknown id, would change the count or the
+/// settings); every other setting is kept as saved, `ekf.gyro_scale_error` at its default (the
+/// one missing).
 #[test]
 fn a_record_with_the_retired_ekf_settings_skips_exactly_them() {
     // The registry's list of retired settings (which the host tools skip) is this one.
-    assert_eq!(RETIRED.map(|(id, name, _)| (id, name)), crate::registry::RETIRED);
-    for (id, name, _) in RETIRED {
+    let registry: Vec<(u16, &str)> =
+        crate::registry::RETIRED.iter().map(|r| (r.id, r.name)).collect();
+    assert_eq!(RETIRED.map(|(id, name, _, _)| (id, name)).to_vec(), registry);
+    for (id, name, _, _) in RETIRED {
         assert!(crate::registry::by_id(id).is_none(), "retired id {id} ({name}) reused");
         assert!(find(name).is_none(), "{name} is back");
     }
@@ -334,11 +344,11 @@ fn a_record_with_the_retired_ekf_settings_skips_exactly_them() {
             (s.id, buf[..n].to_vec())
         })
         .collect();
-    // That firmware wrote its entries in its table's order: each retired one after its
-    // neighbours of then (58 and 59 after 67, 68 and 69 after them).
-    let at = entries.iter().position(|(id, _)| *id == 67).unwrap() + 1;
-    for (k, (id, _, v)) in RETIRED.iter().enumerate() {
-        entries.insert(at + k, (*id, v.to_le_bytes().to_vec()));
+    // That firmware wrote its entries in its table's order: each retired one after the one it
+    // followed then.
+    for (id, _, v, after) in RETIRED {
+        let at = entries.iter().position(|(i, _)| *i == after).unwrap() + 1;
+        entries.insert(at, (id, v.to_le_bytes().to_vec()));
     }
     let entries: Vec<(u16, &[u8])> = entries.iter().map(|(id, v)| (*id, v.as_slice())).collect();
     let mut f = SimFlash::new();
@@ -580,8 +590,8 @@ fn print_record_size() {
 #[test]
 fn record_size_of_the_current_registry() {
     let (len, count) = payload_size(&PipelineSettings::default());
-    assert_eq!((count, len), (76, 549));
-    assert_eq!(HEADER_LEN + padded(len) + CRC_LEN, 566);
+    assert_eq!((count, len), (70, 507));
+    assert_eq!(HEADER_LEN + padded(len) + CRC_LEN, 524);
 }
 
 /// The marine output settings (ids 114–119) are saved and loaded like the others.

@@ -588,25 +588,43 @@ pub fn find(name: &str) -> Option<&'static Setting> {
     SETTINGS.iter().find(|s| s.name.eq_ignore_ascii_case(name))
 }
 
-/// Settings that older firmware had and this one has retired: flash id and name. The ids are
-/// never reused; a saved record that holds one loads without it (`persist`), and the host
-/// tools skip one named in a log's header or a settings file, with a warning (issue #39).
-/// Issue #26's fixed low-pass (session 13) replaced the motion level and vibration share
-/// these four set.
-pub const RETIRED: [(u16, &str); 4] = [
-    (58, "ekf.vib_time_constant"),
-    (59, "ekf.vib_rate"),
-    (68, "ekf.motion_scale"),
-    (69, "ekf.motion_time_constant"),
+/// A setting that older firmware had and this one has retired.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Retired {
+    /// Its flash id, never reused.
+    pub id: u16,
+    /// Its name as the registry spelled it.
+    pub name: &'static str,
+    /// Why it is gone, for the host tools' messages.
+    pub why: &'static str,
+}
+
+/// Issue #26's fixed low-pass (session 13) replaced the motion level and vibration share.
+const WHY_26: &str = "retired with the estimator's redesign (issue #26: the fixed low-pass replaced the motion level and vibration share)";
+/// Issue #36 (session 19): the EKF never read these; only the host's comparison filters do.
+const WHY_36_GATE: &str = "retired by issue #36: the EKF's only gate setting is gate.norm_tolerance (the start window's knock test and the innovation gate are gone; the comparison filters keep their defaults)";
+/// Issue #36 (session 19): it only repeated `noise.accel_var`.
+const WHY_36_VAR: &str = "retired by issue #36: the accelerometer's variance is noise.accel_var alone (this factor repeated it)";
+
+/// Settings that older firmware had and this one has retired. The ids are never reused; a
+/// saved record that holds one loads without it (`persist`), and the host tools skip one
+/// named in a log's header or a settings file, with a warning that says why (issue #39).
+pub const RETIRED: [Retired; 10] = [
+    Retired { id: 58, name: "ekf.vib_time_constant", why: WHY_26 },
+    Retired { id: 59, name: "ekf.vib_rate", why: WHY_26 },
+    Retired { id: 68, name: "ekf.motion_scale", why: WHY_26 },
+    Retired { id: 69, name: "ekf.motion_time_constant", why: WHY_26 },
+    Retired { id: 21, name: "gate.jump", why: WHY_36_GATE },
+    Retired { id: 22, name: "gate.innovation_chi2", why: WHY_36_GATE },
+    Retired { id: 23, name: "gate.holdoff", why: WHY_36_GATE },
+    Retired { id: 24, name: "gate.reacquire", why: WHY_36_GATE },
+    Retired { id: 25, name: "gate.long_reject", why: WHY_36_GATE },
+    Retired { id: 61, name: "ekf.accel_var_scale", why: WHY_36_VAR },
 ];
 
-/// Why a retired setting is gone, for the host tools' messages.
-pub const RETIRED_WHY: &str =
-    "retired with the estimator's redesign (issue #26: the fixed low-pass replaced the motion level and vibration share)";
-
-/// The retired setting called `name` (matched case-insensitively), its registry spelling.
-pub fn retired(name: &str) -> Option<&'static str> {
-    RETIRED.iter().find(|r| r.1.eq_ignore_ascii_case(name)).map(|r| r.1)
+/// The retired setting called `name` (matched case-insensitively).
+pub fn retired(name: &str) -> Option<&'static Retired> {
+    RETIRED.iter().find(|r| r.name.eq_ignore_ascii_case(name))
 }
 
 /// The setting with flash id `id`.

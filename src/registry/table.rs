@@ -246,7 +246,7 @@ settings_table! {
         "standard deviation of `init.gyro_bias` after a window that was not still (started at once from it)",
         |s| s.filter.init.moving_bias_sigma
     ),
-    // Accelerometer gate.
+    // The source's accelerometer gate (the EKF's only gate setting; issue #36 retired the rest).
     num!(
         20,
         "gate.norm_tolerance",
@@ -256,56 +256,6 @@ settings_table! {
         1.0,
         "skip the tilt update when the accelerometer norm differs from 1 g by more (fraction; the source's gate: 0.05)",
         |s| s.filter.gate.norm_tolerance
-    ),
-    num!(
-        21,
-        "gate.jump",
-        "g",
-        1.0,
-        0.001,
-        16.0,
-        "knock: skip when the accelerometer moves more between two samples (the EKF window and the complementary filter)",
-        |s| s.filter.gate.jump_g
-    ),
-    num!(
-        22,
-        "gate.innovation_chi2",
-        "",
-        1.0,
-        1.0,
-        1e6,
-        "knock: skip when the normalised innovation squared exceeds it (2 dof; 1000000: off; the source's gate: 16)",
-        |s| s.filter.gate.innovation_chi2
-    ),
-    num!(
-        23,
-        "gate.holdoff",
-        "s",
-        1.0,
-        0.0,
-        60.0,
-        "keep skipping this long after any rejection",
-        |s| s.filter.gate.holdoff_s
-    ),
-    num!(
-        24,
-        "gate.reacquire",
-        "s",
-        1.0,
-        0.0,
-        3600.0,
-        "bypass the innovation gate after it alone rejected this long",
-        |s| s.filter.gate.reacquire_s
-    ),
-    num!(
-        25,
-        "gate.long_reject",
-        "s",
-        1.0,
-        0.0,
-        86400.0,
-        "raise the long-rejection flag after this long rejected",
-        |s| s.filter.gate.long_reject_s
     ),
     // Plausibility limits.
     num!(
@@ -470,16 +420,6 @@ settings_table! {
         .filter
         .ekf
         .yaw_split),
-    num!(
-        61,
-        "ekf.accel_var_scale",
-        "",
-        1.0,
-        0.01,
-        1e6,
-        "accelerometer measurement variance, times `noise.accel_var`",
-        |s| s.filter.ekf.accel_var_scale
-    ),
     num!(62, "ekf.bias_random_walk", "(deg/s)2/s", DEG2, 0.0, 1.0, "gyro-bias random walk", |s| s
         .filter
         .ekf
