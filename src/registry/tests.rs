@@ -65,7 +65,7 @@ fn every_setting_is_independent_of_the_others() {
     for s in &SETTINGS {
         let v = match s.get(&d) {
             // The largest value, or the smallest where the default is the largest
-            // (`gate.norm_tolerance`, `gate.innovation_chi2`).
+            // (`gate.norm_tolerance`).
             Value::F32(x) => {
                 let max = (f64::from(s.max) / s.scale.factor()) as f32;
                 Value::F32(if x == max {
