@@ -14,6 +14,7 @@ use crate::{
     covariance::{Cov6, ProcessNoise, YawRow},
     fcmp,
     filter::AttitudeFilter,
+    gate::AccelGate,
     init::{self, InitStep, Initializer},
     mathf,
     motion::MotionLevel,
@@ -61,6 +62,8 @@ pub struct Ekf {
     bias: Vec3,
     p: Cov6,
     init: Option<Initializer>,
+    /// The start window's knock test (`init::feed`); nothing after the window reads it.
+    gate: AccelGate,
     rest: RestDetector,
     /// Attitude at the start of the current rest block.
     block_q: Quaternion,
@@ -131,6 +134,7 @@ impl Ekf {
             bias: settings.init.gyro_bias,
             p: Self::initial_cov(&settings),
             init: Some(Initializer::new(&settings)),
+            gate: AccelGate::new(settings.gate),
             rest: RestDetector::new(settings.rest),
             block_q: Quaternion::IDENTITY,
             pending_yaw: 0.0,
@@ -224,6 +228,7 @@ impl Ekf {
         self.bias_ref = self.bias;
         self.p = Self::initial_cov(&self.settings);
         self.init = None;
+        self.gate.reset();
         self.rest.reset();
         self.block_q = self.q;
         self.pending_yaw = 0.0;
@@ -607,7 +612,7 @@ impl AttitudeFilter for Ekf {
         let accel = c.accel_g;
 
         if let Some(init) = self.init.as_mut() {
-            match init::feed(init, self.settings.gate.norm_tolerance, &c) {
+            match init::feed(init, &mut self.gate, &c) {
                 InitStep::Pending(q) => {
                     self.q = q;
                     if let Some((a, _)) = accel {

@@ -40,7 +40,7 @@ impl GyroOnly {
     pub(crate) fn propagate(&mut self, sample: &ImuSample) -> Result<validate::Checked, Flags> {
         let c = validate::check(sample, &self.settings.limits).ok_or(Flags::TIME_GAP)?;
         if let Some(init) = self.init.as_mut() {
-            match init::feed(init, self.settings.gate.norm_tolerance, &c) {
+            match init::feed(init, &mut self.gate, &c) {
                 InitStep::Pending(q) => {
                     self.q = q;
                     return Err(c.flags | Flags::INITIALISING);

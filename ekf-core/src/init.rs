@@ -3,7 +3,8 @@
 //! quaternion.
 
 use crate::{
-    fcmp, mathf,
+    gate::{AccelGate, PreCheck},
+    mathf,
     settings::{InitSettings, Settings},
     validate::Checked,
     Euler, Quaternion, Vec3,
@@ -354,15 +355,14 @@ impl Initializer {
     }
 }
 
-/// Feed one checked sample to the window. Accelerometer samples whose norm is not
-/// 1 ± `norm_tolerance` (the source's gate, `gate.norm_tolerance`) stay out of the tilt average;
-/// a knock within the tolerance is one sample of an average over seconds, and one strong
-/// enough to matter spreads the window's samples beyond its stillness test
-/// ([`WINDOW_ACCEL_STD_FACTOR`]).
+/// Feed one checked sample to the window; only accelerometer samples that pass the gate's
+/// magnitude, jump and hold-off checks enter the tilt average.
 #[inline(never)] // the first seconds only: out of the update's hot code
-pub fn feed(init: &mut Initializer, norm_tolerance: f32, c: &Checked) -> InitStep {
-    let a =
-        c.accel_g.and_then(|(a, n)| (!fcmp::gt(mathf::abs(n - 1.0), norm_tolerance)).then_some(a));
+pub fn feed(init: &mut Initializer, gate: &mut AccelGate, c: &Checked) -> InitStep {
+    let a = c.accel_g.and_then(|(a, n)| match gate.pre_check(c.dt_rate, a, n, 0.0) {
+        PreCheck::Pass { .. } => Some(a),
+        PreCheck::Reject(_) => None,
+    });
     init.push(c.dt_rate, c.gyro, a)
 }
 

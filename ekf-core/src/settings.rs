@@ -96,14 +96,15 @@ impl Default for InitSettings {
 }
 
 /// Accelerometer gating: which samples may correct tilt. The EKF (the firmware's filter) reads
-/// `norm_tolerance` alone, in its update and its start window; the other five are the
-/// comparison filters' (UKF, SS-UKF, complementary, gyro-only: `gate.rs`), fixed at their
-/// defaults in the firmware (issue #36 retired them from the registry).
+/// `norm_tolerance` in its update, and `norm_tolerance`, `jump_g` and `holdoff_s` in its start
+/// window (`init::feed`); the rest are the comparison filters' (UKF, SS-UKF, complementary,
+/// gyro-only: `gate.rs`). Only `norm_tolerance` is in the registry: the firmware keeps the
+/// others at their defaults (issue #36 retired them).
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct GateSettings {
-    /// Magnitude gate: skip the update when `| |a|/g − 1 |` exceeds this, dimensionless; the
-    /// start window leaves such samples out of its tilt average. Default 1 (off in practice:
+    /// Magnitude gate: skip the update when `| |a|/g − 1 |` exceeds this, dimensionless.
+    /// Default 1 (off in practice:
     /// only beyond 2 g). 0.05 is the source's 1 ± 0.05 g gate; on real motion it rejects most
     /// samples, and the EKF's low-pass in motion replaces it (`docs/filter.md`).
     pub norm_tolerance: f32,

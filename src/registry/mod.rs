@@ -601,8 +601,9 @@ pub struct Retired {
 
 /// Issue #26's fixed low-pass (session 13) replaced the motion level and vibration share.
 const WHY_26: &str = "retired with the estimator's redesign (issue #26: the fixed low-pass replaced the motion level and vibration share)";
-/// Issue #36 (session 19): the EKF never read these; only the host's comparison filters do.
-const WHY_36_GATE: &str = "retired by issue #36: the EKF's only gate setting is gate.norm_tolerance (the start window's knock test and the innovation gate are gone; the comparison filters keep their defaults)";
+/// Issue #36 (session 19): the EKF never read these after its start window, which keeps the
+/// defaults of two of them; the host's comparison filters use them.
+const WHY_36_GATE: &str = "retired by issue #36: the EKF's only gate setting is gate.norm_tolerance (its start window's knock test keeps the defaults; the innovation gate is the comparison filters')";
 /// Issue #36 (session 19): it only repeated `noise.accel_var`.
 const WHY_36_VAR: &str = "retired by issue #36: the accelerometer's variance is noise.accel_var alone (this factor repeated it)";
 

@@ -259,8 +259,8 @@ impl<T: Real, const M: usize> Core<T, M> {
         let accel = c.accel_g;
 
         if let Some(init) = self.init.as_mut() {
-            // Only samples that pass the magnitude check enter the tilt average.
-            match init::feed(init, self.settings.gate.norm_tolerance, &c) {
+            // Only samples that pass the magnitude and jump checks enter the tilt average.
+            match init::feed(init, &mut self.gate, &c) {
                 InitStep::Pending(q) => {
                     let b = self.gyro_bias();
                     self.set_state(q, b);
