@@ -20,7 +20,7 @@ use crate::{
     motion::MotionLevel,
     quaternion::Mat3,
     rest::{RestBlock, RestDetector},
-    settings::Settings,
+    settings::{still_bias_floor, Settings},
     tilt_lowpass::TiltLowPass,
     validate::{self, Checked},
     Euler, Flags, ImuSample, Quaternion, Vec3,
@@ -518,11 +518,14 @@ impl Ekf {
             self.pending_yaw = 0.0;
             // Zero-rate measurement of the bias error, axis by axis; only the bias moves.
             let free = [false, false, false, true, true, true];
-            let floor = self.settings.rest.bias_meas_floor;
+            // The block's mean rate measures the bias at its end to within Earth's rate and
+            // the bias's walk over the block (`settings::still_bias_floor`).
+            let floor =
+                still_bias_floor(self.settings.ekf.bias_random_walk, self.settings.rest.block_s);
             let mut moved_bias = Vec3::ZERO;
             for i in 0..3 {
                 let z = b.mean_rate[i] - moved_bias[i];
-                let r = b.mean_var[i] + floor * floor;
+                let r = b.mean_var[i] + floor;
                 if let Some((dx, _)) = self.p.update_scalar(3 + i, z, r, free) {
                     let d = Vec3::new(dx[3], dx[4], dx[5]);
                     self.bias += d;
@@ -1046,9 +1049,7 @@ mod tests {
     /// one before less `J·Δb`, to rounding; without the shift a stale `J·Δb` is read as tilt.
     #[test]
     fn a_rest_bias_update_moves_the_low_pass_by_its_delay() {
-        let mut s = Settings::default();
-        s.rest.bias_meas_floor = 0.0;
-        let mut f = quiet_filter(s);
+        let mut f = quiet_filter(Settings::default());
         f.p = Cov6::diagonal([1e-6, 1e-6, 1e-6, 1e-6, 1e-6, 1e-6]);
         f.motion.set_rate(0.02, 2.5, 2.376e-6, 1.8642e-6, 0.02);
         f.rate_dt = 0.02f32.to_bits();
@@ -1079,6 +1080,28 @@ mod tests {
             let want = before[k] - (h.j[k][0] * db.x + h.j[k][1] * db.y + h.j[k][2] * db.z);
             assert!((after[k] - want).abs() < 1e-7, "{k}: {} vs {want}", after[k]);
         }
+    }
+
+    /// A still block's mean rate measures the bias only to within the floor of
+    /// `settings::still_bias_floor` (Earth's rate and the walk over the block): with the
+    /// bias as uncertain as that floor and a noise-free block, the Kalman gain is ½, so the bias
+    /// moves by half the measured rate (by all of it without the floor).
+    #[test]
+    fn a_rest_block_measures_the_bias_to_within_the_derived_floor() {
+        let s = Settings::default();
+        let mut f = quiet_filter(s);
+        let floor = still_bias_floor(s.ekf.bias_random_walk, s.rest.block_s);
+        for i in 3..6 {
+            f.p.m[i][i] = floor;
+        }
+        f.block_q = f.q;
+        let z = Vec3::new(deg(0.01), deg(-0.02), deg(0.005));
+        let block =
+            RestBlock { still: true, at_rest: true, mean_rate: z, mean_var: Vec3::ZERO, n: 100 };
+        f.rest_block(&block);
+        let want = z * 0.5;
+        assert!((f.bias - want).max_abs() < 1e-4 * z.max_abs(), "{:?} vs {want:?}", f.bias);
+        assert!((f.p.m[3][3] / (0.5 * floor) - 1.0).abs() < 1e-4, "{}", f.p.m[3][3]);
     }
 
     #[test]

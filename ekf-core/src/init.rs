@@ -5,7 +5,8 @@
 use crate::{
     gate::{AccelGate, PreCheck},
     mathf,
-    settings::{InitSettings, Settings},
+    rest::SEGMENTS,
+    settings::{still_bias_floor, InitSettings, Settings},
     validate::Checked,
     Euler, Quaternion, Vec3,
 };
@@ -23,10 +24,6 @@ pub fn attitude_from_accel(f: Vec3, yaw: f32) -> Quaternion {
     let (roll, pitch) = tilt_from_accel(f);
     Euler::new(roll, pitch, yaw).to_quaternion()
 }
-
-/// Added to the variance of the window's bias estimate, (rad/s)² ((0.002 °/s)²): what the
-/// window's average cannot know (turn-on drift, the window's own imperfect stillness).
-pub const BIAS_VAR_FLOOR: f32 = 1.218e-9;
 
 /// What the window produced.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -53,6 +50,12 @@ pub const MIN_CHECK_S: f32 = 0.2;
 pub const WINDOW_SPREAD_FACTOR: f32 = 8.0;
 /// Segments before their spread is judged.
 pub const MIN_SPREAD_SEGMENTS: u32 = 4;
+/// A window found moving still gives its bias and tilt when it had been still for this many
+/// segments before (up to the checkpoint two before the last: motion that begins slowly is seen
+/// up to two segments late): 0.5 s with the default segments. A recording that starts with
+/// half a second still keeps its bias (RepoIMU's pendulum: 14.97° of heading, against 45.5°
+/// when the part must be as long as the spread test's [`MIN_SPREAD_SEGMENTS`]).
+pub const MIN_STILL_PREFIX_SEGMENTS: u32 = 2;
 /// The samples' measured variance is taken as at least this fraction of the configured noise
 /// (a quantised gyro can read the same value for a while): 0.01, so that a noise setting 10×
 /// too high or too low changes no decision.
@@ -62,13 +65,6 @@ pub const WINDOW_NOISE_FLOOR: f32 = 0.01;
 /// thruster at idle) averages out of the tilt and does not touch the gyro bias; a 15° pitch
 /// sine spreads the accelerometer by 0.18 g.
 pub const WINDOW_ACCEL_STD_FACTOR: f32 = 5.0;
-
-/// Interval between the window's still checkpoints, s.
-pub const CHECKPOINT_S: f32 = 0.25;
-/// A window found moving still gives its bias and tilt when it had been still for this long
-/// before (up to the checkpoint two [`CHECKPOINT_S`] before the last: motion that begins slowly
-/// is seen up to half a second late), s.
-pub const MIN_STILL_PREFIX_S: f32 = 0.5;
 
 /// The window's sums up to a point.
 #[derive(Clone, Copy, Debug, Default)]
@@ -117,6 +113,8 @@ impl Sums {
 #[derive(Clone, Copy, Debug)]
 pub struct Initializer {
     settings: InitSettings,
+    /// `ekf.bias_random_walk`, (rad/s)²/s ([`still_bias_floor`]).
+    bias_random_walk: f32,
     yaw: f32,
     /// The sums over the window so far.
     s: Sums,
@@ -126,15 +124,18 @@ pub struct Initializer {
     gyro_ref_rate_hz: f32,
     /// `ekf.initial_bias_sigma²`, (rad/s)²: the rate differences a still window tolerates.
     bias_tol_sq: f32,
-    /// Completed 0.25 s segments: their number, and Σ and Σ² of their mean rates.
+    /// The segments' length, s: the rest detector's (`rest.block` over [`SEGMENTS`], 0.25 s).
+    segment_s: f32,
+    /// Completed segments: their number, and Σ and Σ² of their mean rates.
     segments: u32,
     seg_sum: Vec3,
     seg_sq: Vec3,
     /// Largest accelerometer variance per axis of a still window, g².
     accel_var_max: f32,
     moving: bool,
-    /// The sums at the last still checkpoint, and at the two before it.
+    /// The sums at the last still checkpoint (segment end), and at the two before it.
     checkpoint: Sums,
+    checkpoints: u32,
     previous: Sums,
     still_prefix: Sums,
     /// The accelerometer variance of the whole window when it ended (g², summed over axes).
@@ -152,6 +153,7 @@ impl Initializer {
     pub fn new(s: &Settings) -> Self {
         Initializer {
             settings: s.init,
+            bias_random_walk: s.ekf.bias_random_walk,
             yaw: s.init.initial_yaw,
             s: Sums::default(),
             gyro_var_floor: s.noise.gyro_var * WINDOW_NOISE_FLOOR,
@@ -161,11 +163,13 @@ impl Initializer {
                 a * a
             },
             bias_tol_sq: s.ekf.initial_bias_sigma * s.ekf.initial_bias_sigma,
+            segment_s: s.rest.block_s * (1.0 / SEGMENTS as f32),
             segments: 0,
             seg_sum: Vec3::ZERO,
             seg_sq: Vec3::ZERO,
             moving: false,
             checkpoint: Sums::default(),
+            checkpoints: 0,
             previous: Sums::default(),
             still_prefix: Sums::default(),
             level: None,
@@ -262,8 +266,9 @@ impl Initializer {
 
     /// Variance of the window's gyro-bias estimate per axis, (rad/s)²: the configured
     /// per-sample noise at the window's sample rate over the number of samples, plus
-    /// [`BIAS_VAR_FLOOR`]. `None` when the bias is not estimated from the window. The filters
-    /// start their bias covariance from it.
+    /// what the average measures besides the bias, Earth's rate and the bias's walk over the
+    /// window ([`still_bias_floor`]). `None` when the bias is not estimated from the
+    /// window. The filters start their bias covariance from it.
     pub fn bias_variance(&self, noise: &crate::settings::NoiseSettings) -> Option<Vec3> {
         if !self.settings.estimate_gyro_bias
             || self.moving
@@ -274,7 +279,8 @@ impl Initializer {
         }
         let n = self.s.gyro_n as f32;
         let rate_hz = n / self.s.elapsed;
-        let floor = Vec3::new(BIAS_VAR_FLOOR, BIAS_VAR_FLOOR, BIAS_VAR_FLOOR);
+        let f = still_bias_floor(self.bias_random_walk, self.s.elapsed);
+        let floor = Vec3::new(f, f, f);
         Some(noise.gyro_var * (rate_hz / noise.gyro_ref_rate_hz.max(1e-3) / n) + floor)
     }
 
@@ -314,7 +320,7 @@ impl Initializer {
         if self.s.acc_n > 0 && self.is_moving() {
             self.level = Some(self.motion_level());
             let p = self.still_prefix;
-            if p.elapsed >= MIN_STILL_PREFIX_S && p.acc_n > 0 && p.gyro_n > 0 {
+            if self.checkpoints >= MIN_STILL_PREFIX_SEGMENTS + 2 && p.acc_n > 0 && p.gyro_n > 0 {
                 // Still before the motion began: the window ends there, a shorter still window
                 // (its sums up to the checkpoint two before the last).
                 self.s = p;
@@ -324,7 +330,7 @@ impl Initializer {
             self.moving = true;
             return InitStep::Done(q, self.settings.gyro_bias);
         }
-        if self.s.elapsed - self.checkpoint.elapsed >= CHECKPOINT_S {
+        if self.s.elapsed - self.checkpoint.elapsed >= self.segment_s {
             let seg = self.s.since(&self.checkpoint);
             if seg.gyro_n > 0 {
                 let m = Vec3::from_array(seg.gyro().0);
@@ -335,6 +341,7 @@ impl Initializer {
             self.still_prefix = self.previous;
             self.previous = self.checkpoint;
             self.checkpoint = self.s;
+            self.checkpoints += 1;
         }
         if self.s.elapsed >= self.settings.window_s - 0.5 * dt && self.s.acc_n > 0 {
             self.finish()
@@ -474,6 +481,31 @@ mod tests {
         assert!(!init.was_moving());
         assert_eq!(k, 499);
         assert!((b - off).max_abs() < 1e-6);
+    }
+
+    /// The window's bias variance: the noise's over the samples plus Earth's rate and the
+    /// bias's walk between the window's mean and its end. Hand-derived with the defaults
+    /// (walk (0.002 °/s)²/s = 1.2185e−9 rad²/s³): Ω² = (7.292115e−5)² = 5.3175e−9 and
+    /// 1.2185e−9·10/3 = 4.0617e−9, 9.3792e−9 (rad/s)² (0.00555 °/s) after 10 s; with a noise-free
+    /// gyro that is all of it. With the noise the board's: 0.337 (°/s)² at 50 Hz over 500
+    /// samples more on x.
+    #[test]
+    fn the_window_bias_variance_has_earth_rate_and_the_walk_as_its_floor() {
+        let mut s = settings(10.0);
+        s.noise.gyro_var = Vec3::ZERO;
+        let mut init = Initializer::new(&s);
+        let still = s.init.gyro_bias + Vec3::new(deg(0.1), 0.0, 0.0);
+        let (k, _) = run_window(&mut init, |_| still);
+        assert_eq!(k, 499);
+        let v = init.bias_variance(&s.noise).unwrap();
+        for v in v.to_array() {
+            assert!((v / 9.3792e-9 - 1.0).abs() < 1e-3, "{v}");
+        }
+        let noise = Settings::default().noise;
+        let x = init.bias_variance(&noise).unwrap().x;
+        assert!((x - 9.3792e-9 - 0.337 * deg(1.0) * deg(1.0) / 500.0).abs() < 1e-9, "{x}");
+        // A rest block of 2 s: 5.3175e−9 + 0.8123e−9.
+        assert!((still_bias_floor(s.ekf.bias_random_walk, 2.0) / 6.1298e-9 - 1.0).abs() < 1e-3);
     }
 
     #[test]

@@ -202,9 +202,6 @@ pub struct RestSettings {
     /// Largest standard deviation of a still block's segment mean accelerations per axis, g
     /// (0.25 s segments by default: vibration averages out). Default 0.01 g.
     pub accel_std_max_g: f32,
-    /// Standard deviation added to the bias measurement of a still block, rad/s (covers
-    /// Earth rate and slow thermal drift). Default 0.005 °/s.
-    pub bias_meas_floor: f32,
     /// Hold yaw while at rest: undo the yaw integrated over each still block. Default true.
     pub yaw_hold: bool,
 }
@@ -218,7 +215,6 @@ impl Default for RestSettings {
             rate_threshold: deg(0.2),
             gyro_var_factor: 6.0,
             accel_std_max_g: 0.01,
-            bias_meas_floor: deg(0.005),
             yaw_hold: true,
         }
     }
@@ -316,6 +312,21 @@ impl Default for EkfSettings {
             gyro_scale_error: 0.02,
         }
     }
+}
+
+/// Earth's rotation rate, rad/s (WGS 84's ω_ie).
+pub const EARTH_RATE: f32 = 7.292_115e-5;
+
+/// What a still average of the gyro over `t` s measures besides the bias the filter
+/// estimates, as a variance, (rad/s)² per axis: Earth's rate, up to [`EARTH_RATE`] on an
+/// axis (the filter has no Earth-rate model: its bias takes in the projection at the
+/// attitude where it was measured, which a turn changes), and the bias's own walk between
+/// the average and its end (a random walk of density `bias_random_walk` differs from its
+/// mean over the last `t` s by a variance `bias_random_walk·t/3`). Added to the variance of
+/// the start window's bias (`init.rs`) and of a rest block's (`ekf.rs`): with the
+/// defaults, 0.0055 °/s after the 10 s window and 0.0045 °/s after a 2 s block.
+pub fn still_bias_floor(bias_random_walk: f32, t: f32) -> f32 {
+    EARTH_RATE * EARTH_RATE + bias_random_walk * t * (1.0 / 3.0)
 }
 
 /// Everything the estimator needs; `Default` is the iNEMO V2 / Seahog configuration.

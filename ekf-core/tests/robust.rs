@@ -212,7 +212,9 @@ fn a_start_in_motion_keeps_the_heading_near_the_gyro_alone() {
 
 /// The same start with the old behaviour's input — a window that takes the motion as bias —
 /// is what the moving-start check prevents: with the check defeated (a huge `moving_bias_sigma`
-/// and gyro variance limit), the bias from the window is wrong by degrees per second.
+/// for the mean test, rate tolerance `initial_bias_sigma` for the segments' spread and the
+/// checkpoints, and accelerometer limit), the bias from the window is wrong by degrees per
+/// second.
 #[test]
 fn without_the_stillness_check_the_window_takes_motion_as_bias() {
     let w = core::f32::consts::TAU * 0.1;
@@ -221,7 +223,7 @@ fn without_the_stillness_check_the_window_takes_motion_as_bias() {
     let run = simulate(Quaternion::IDENTITY, 10.5, 50.0, Sensors::board(), 13, motion);
     let mut s = Settings::default();
     s.init.moving_bias_sigma = deg(1000.0);
-    s.rest.gyro_var_factor = 1e9;
+    s.ekf.initial_bias_sigma = deg(1000.0);
     s.rest.accel_std_max_g = 10.0;
     let mut f = Ekf::new(s);
     for smp in &run.samples {

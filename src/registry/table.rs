@@ -351,16 +351,6 @@ settings_table! {
         "largest standard deviation per axis of a still block's 8 segment mean accelerations",
         |s| s.filter.rest.accel_std_max_g
     ),
-    num!(
-        46,
-        "rest.bias_meas_floor",
-        "deg/s",
-        DEG,
-        0.0,
-        1.0,
-        "standard deviation added to a still block's bias measurement",
-        |s| s.filter.rest.bias_meas_floor
-    ),
     flag!(47, "rest.yaw_hold", "undo the yaw integrated over still blocks", |s| s
         .filter
         .rest
