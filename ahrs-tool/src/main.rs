@@ -14,6 +14,7 @@ mod bridge;
 mod emulate;
 mod link;
 mod live;
+mod noise;
 mod raw;
 mod settings_cmd;
 mod signalk;
@@ -103,6 +104,17 @@ enum Cmd {
     Settings {
         #[command(subcommand)]
         action: SettingsAction,
+    },
+    /// The noise settings measured from a still recording (a trace CSV, e.g. from `log`): the
+    /// Allan variance of each gyro and accelerometer axis gives `noise.gyro_var`,
+    /// `noise.accel_var` and (from an hour or more) `ekf.bias_random_walk`, as a settings file
+    /// for `settings put`.
+    Noise {
+        /// The still recording (trace CSV).
+        trace: PathBuf,
+        /// Output settings file (default: standard output).
+        #[arg(long)]
+        out: Option<PathBuf>,
     },
     /// Interactive six-position accelerometer calibration (answers read from stdin).
     Calibrate {
@@ -246,6 +258,7 @@ fn main() -> ExitCode {
             log(&port, &out, seconds, restart, device_estimates.as_deref(), force)
         }
         Cmd::Calibrate { port, seconds } => calibrate(&port, seconds),
+        Cmd::Noise { trace, out } => noise::run(&trace, out.as_deref()),
         Cmd::Bridge { port, udp, tcp, signalk, seconds } => {
             catch_signals();
             let stop = || INTERRUPTED.load(Ordering::SeqCst);

@@ -12,6 +12,7 @@
 #![warn(missing_docs)]
 
 pub mod accuracy;
+pub mod allan;
 pub mod config;
 pub mod handheld;
 pub mod lenient;
