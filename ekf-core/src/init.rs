@@ -5,7 +5,7 @@
 use crate::{
     gate::{AccelGate, PreCheck},
     mathf,
-    rest::SEGMENTS,
+    rest::{SEGMENTS, Z},
     settings::{still_bias_floor, InitSettings, Settings},
     validate::Checked,
     Euler, Quaternion, Vec3,
@@ -147,8 +147,9 @@ impl Initializer {
     /// 0.25 s segment mean rates spread by no more than [`WINDOW_SPREAD_FACTOR`] times what the
     /// samples' own variance gives them, the accelerometer's standard deviation is within
     /// [`WINDOW_ACCEL_STD_FACTOR`] × `rest.accel_std_max_g`, the mean gyro within
-    /// 3 `moving_bias_sigma` of `gyro_bias`, and the samples since the last checkpoint agree
-    /// with those before it (within 3 standard errors plus `ekf.initial_bias_sigma`). No test
+    /// [`Z`] (3) `moving_bias_sigma` of `gyro_bias`, and the samples since the last checkpoint
+    /// agree with those before it (within [`Z`] standard errors plus `ekf.initial_bias_sigma`:
+    /// the rest detector's significance). No test
     /// depends on the configured gyro noise (beyond a floor).
     pub fn new(s: &Settings) -> Self {
         Initializer {
@@ -200,7 +201,7 @@ impl Initializer {
         let rate = self.s.gyro_n as f32 / self.s.elapsed;
         let floor = (self.gyro_var_floor * (rate / self.gyro_ref_rate_hz)).to_array();
         let configured = self.settings.gyro_bias.to_array();
-        let off_max = 3.0 * self.settings.moving_bias_sigma;
+        let off_max = Z * self.settings.moving_bias_sigma;
         let (mean, _) = self.s.gyro();
         for (m, c) in mean.iter().zip(configured) {
             if !(mathf::abs(m - c) <= off_max) {
@@ -228,7 +229,7 @@ impl Initializer {
             }
         }
         // Motion that begins after a still part: the samples since the last checkpoint against
-        // those before it — a mean rate 3 standard errors away, and far enough to move the
+        // those before it — a mean rate Z (3) standard errors away, and far enough to move the
         // window's mean by more than the tolerance (`d·n_seg/n` beyond `initial_bias_sigma`).
         let seg = self.s.since(&cp);
         if cp.gyro_n >= MIN_CHECK_SAMPLES && seg.gyro_n >= MIN_CHECK_SAMPLES {
@@ -239,7 +240,7 @@ impl Initializer {
             let tol_sq = self.bias_tol_sq * share * share;
             for (((sm, cm), v), f) in seg_mean.iter().zip(cp_mean).zip(cp_var).zip(floor) {
                 let d = sm - cm;
-                if !(d * d <= 9.0 * v.max(f) * k + tol_sq) {
+                if !(d * d <= Z * Z * v.max(f) * k + tol_sq) {
                     return true;
                 }
             }

@@ -36,6 +36,11 @@ const RATE_LSB: f32 = 1.0 / (1u32 << RATE_FRAC_BITS) as f32;
 const ACCEL_LSB: f32 = 1.0 / (1u32 << ACCEL_FRAC_BITS) as f32;
 /// Segments per block: the segment means' spread is the stillness test.
 pub const SEGMENTS: u32 = 8;
+/// The significance of every mean test of the stillness detection, here and in the start
+/// window (`init.rs`): a mean this many of its standard deviations from what stillness
+/// predicts is motion (two-sided 0.27 % for a normally distributed mean). One number, so that
+/// the detector and the start window judge alike.
+pub const Z: f32 = 3.0;
 
 /// `x·2^frac` rounded toward zero, saturated to `±i32::MAX` (`i32::MIN` for −∞); NaN gives 0
 /// (the filters never pass one: `validate` rejects it first).
@@ -294,7 +299,7 @@ impl RestDetector {
         let a_max = self.settings.accel_std_max_g * self.settings.accel_std_max_g;
         let limits = seg_var.to_array().map(|v| self.settings.gyro_var_factor * v);
         for i in 0..3 {
-            let thr = self.settings.rate_threshold + 3.0 * mathf::sqrt(mean_var[i]);
+            let thr = self.settings.rate_threshold + Z * mathf::sqrt(mean_var[i]);
             still &= mathf::abs(mean[i]) <= thr;
             still &= g_spread[i] <= limits[i];
             still &= a_spread[i] <= a_max;
