@@ -39,15 +39,6 @@ pub enum InitStep {
 pub const MIN_CHECK_SAMPLES: u32 = 10;
 /// Time before the window's stillness is judged, s.
 pub const MIN_CHECK_S: f32 = 0.2;
-/// Largest spread (variance) of a still window's 0.25 s segment mean rates per axis: this
-/// multiple of what the samples' own variance gives a segment mean (σ²/n), plus
-/// `ekf.initial_bias_sigma²` (the bias uncertainty a still window starts the filter with:
-/// segment means that agree within it give a bias as good as the filter assumes). The test
-/// needs no noise setting: noise and vibration, whatever their level, spread the segment means
-/// by σ²/n (χ²₃/3 after four segments: beyond 8 with probability 3·10⁻⁵), while the slow
-/// motion that corrupts a window's mean moves them together (a 15° pitch sine at 0.1 Hz: by
-/// several °/s). Steady turns have no spread: the mean test catches them.
-pub const WINDOW_SPREAD_FACTOR: f32 = 8.0;
 /// Segments before their spread is judged.
 pub const MIN_SPREAD_SEGMENTS: u32 = 4;
 /// A window found moving still gives its bias and tilt when it had been still for this many
@@ -132,6 +123,16 @@ pub struct Initializer {
     seg_sq: Vec3,
     /// Largest accelerometer variance per axis of a still window, g².
     accel_var_max: f32,
+    /// Largest spread (variance) of the segment mean rates per axis, as a multiple of what the
+    /// samples' own variance gives a segment mean (σ²/n): the rest detector's
+    /// `rest.gyro_var_factor` (6), plus `ekf.initial_bias_sigma²` (segment means that agree
+    /// within it give a bias as good as the filter assumes). The test needs no noise setting:
+    /// noise and vibration, whatever their level, spread the segment means by σ²/n (χ²₃/3
+    /// after four segments, beyond 6 with probability 4.4·10⁻⁴ per axis, 1.5·10⁻⁵ after six),
+    /// while the slow motion that corrupts a window's mean moves them together (a 15° pitch
+    /// sine at 0.1 Hz: by several °/s). Steady turns have no spread: the mean test catches
+    /// them.
+    spread_factor: f32,
     moving: bool,
     /// The sums at the last still checkpoint (segment end), and at the two before it.
     checkpoint: Sums,
@@ -144,8 +145,8 @@ pub struct Initializer {
 
 impl Initializer {
     /// A new window with the settings' initial yaw. A window is still when, per axis, its
-    /// 0.25 s segment mean rates spread by no more than [`WINDOW_SPREAD_FACTOR`] times what the
-    /// samples' own variance gives them, the accelerometer's standard deviation is within
+    /// segment mean rates spread by no more than `rest.gyro_var_factor` times what the samples'
+    /// own variance gives them (plus `ekf.initial_bias_sigma²`), the accelerometer's standard deviation is within
     /// [`WINDOW_ACCEL_STD_FACTOR`] × `rest.accel_std_max_g`, the mean gyro within
     /// [`Z`] (3) `moving_bias_sigma` of `gyro_bias`, and the samples since the last checkpoint
     /// agree with those before it (within [`Z`] standard errors plus `ekf.initial_bias_sigma`:
@@ -166,6 +167,7 @@ impl Initializer {
             bias_tol_sq: s.ekf.initial_bias_sigma * s.ekf.initial_bias_sigma,
             segment_s: s.rest.block_s * (1.0 / SEGMENTS as f32),
             segments: 0,
+            spread_factor: s.rest.gyro_var_factor,
             seg_sum: Vec3::ZERO,
             seg_sq: Vec3::ZERO,
             moving: false,
@@ -223,7 +225,7 @@ impl Initializer {
             let (sum, sq) = (self.seg_sum.to_array(), self.seg_sq.to_array());
             for (((s1, s2), v), f) in sum.iter().zip(sq).zip(cp_var).zip(floor) {
                 let spread = (s2 - s1 * s1 / k) / (k - 1.0);
-                if !(spread <= WINDOW_SPREAD_FACTOR * v.max(f) / n_seg + self.bias_tol_sq) {
+                if !(spread <= self.spread_factor * v.max(f) / n_seg + self.bias_tol_sq) {
                     return true;
                 }
             }

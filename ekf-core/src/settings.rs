@@ -198,6 +198,8 @@ pub struct RestSettings {
     /// (σ²·segments/n). Default 6: with 8 segments the statistic is χ²₇/7 for noise alone,
     /// beyond 6 with probability 5·10⁻⁷ per axis (beyond 4, 2·10⁻⁴: a still board would lose
     /// rest about once an hour). Vibration averages out of the segment means; rocking does not.
+    /// The start window's stillness test takes the same limit on its segment means, against
+    /// the samples' own scatter there (`init.rs`).
     pub gyro_var_factor: f32,
     /// Largest standard deviation of a still block's segment mean accelerations per axis, g
     /// (0.25 s segments by default: vibration averages out). Default 0.01 g.
