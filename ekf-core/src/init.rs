@@ -486,6 +486,35 @@ mod tests {
         assert!((b - off).max_abs() < 1e-6);
     }
 
+    /// The window's segment means may spread by `rest.gyro_var_factor` times what the samples'
+    /// own scatter gives them, as the rest detector's: a still window with white gyro noise
+    /// (σ = 0.05 rad/s, segment means scattering by σ²/12.5) takes its whole 10 s under the
+    /// default limit (6), for 5 seeds; under a limit of 0.5 the scatter noise alone gives its
+    /// segment means exceeds it and the window ends within its first seconds.
+    #[test]
+    fn the_window_spread_limit_is_the_rest_detectors() {
+        let run = |factor: f32, seed: u64| {
+            let mut s = settings(10.0);
+            s.rest.gyro_var_factor = factor;
+            let c = s.init.gyro_bias;
+            let mut init = Initializer::new(&s);
+            let mut rng = crate::test_rng::TestRng::new(seed);
+            for k in 0..1000 {
+                let w = c + Vec3::new(rng.normal(), rng.normal(), rng.normal()) * 0.05;
+                if let InitStep::Done(..) =
+                    init.push(0.02, Some(w), Some(Vec3::new(0.0, 0.0, -1.0)))
+                {
+                    return k;
+                }
+            }
+            panic!("never finished");
+        };
+        for seed in 1..=5 {
+            assert_eq!(run(6.0, seed), 499, "seed {seed}");
+            assert!(run(0.5, seed) < 200, "seed {seed}: {}", run(0.5, seed));
+        }
+    }
+
     /// The window's bias variance: the noise's over the samples plus Earth's rate and the
     /// bias's walk between the window's mean and its end. Hand-derived with the defaults
     /// (walk (0.002 °/s)²/s = 1.2185e−9 rad²/s³): Ω² = (7.292115e−5)² = 5.3175e−9 and
