@@ -30,6 +30,13 @@ use crate::{
 const MAX_ATT_VAR: f32 = 10.0;
 /// Largest bias-error variance before the health check resets the covariance, (rad/s)².
 const MAX_BIAS_VAR: f32 = 1.0;
+/// The heading's variance at the start, rad²: that of an angle uniform over the circle,
+/// π²/3. Nothing the filter starts from measures the heading — the start window measures tilt
+/// and bias; `init.yaw0` or `set_attitude`'s yaw is the reference the heading is counted from,
+/// not a measurement of it — so a heading source (the magnetometer) takes its first
+/// measurement whole (a gain of 1 − 3·10⁻⁴ with its 3°), whatever the start's yaw. Without one
+/// (the Seahog's default) nothing reads it: the yaw row is not propagated (`YawRow`).
+const START_YAW_VAR: f32 = core::f32::consts::PI * core::f32::consts::PI / 3.0;
 
 /// How far, in units in the last place of its bits, `dt` may move before what depends on the
 /// sample rate (the accelerometer's per-sample variance, the low-pass's weight) is recomputed:
@@ -215,7 +222,7 @@ impl Ekf {
     #[inline(never)]
     fn initial_cov(s: &Settings) -> Cov6 {
         let t = s.ekf.initial_tilt_sigma * s.ekf.initial_tilt_sigma;
-        let y = s.ekf.initial_yaw_sigma * s.ekf.initial_yaw_sigma;
+        let y = START_YAW_VAR;
         let b = s.ekf.initial_bias_sigma * s.ekf.initial_bias_sigma;
         Cov6::diagonal([t, t, y, b, b, b])
     }

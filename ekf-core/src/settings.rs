@@ -275,8 +275,6 @@ pub struct EkfSettings {
     pub yaw_drift_rate: f32,
     /// Tilt (roll, pitch) standard deviation after initialisation, rad. Default 2°.
     pub initial_tilt_sigma: f32,
-    /// Yaw standard deviation after initialisation, rad. Default 5°.
-    pub initial_yaw_sigma: f32,
     /// Gyro-bias standard deviation after initialisation, rad/s. Default 0.2 °/s. Also the rate
     /// agreement a still initialisation window tolerates (`init.rs`).
     pub initial_bias_sigma: f32,
@@ -308,7 +306,6 @@ impl Default for EkfSettings {
             bias_random_walk: deg(0.002) * deg(0.002),
             yaw_drift_rate: 0.0,
             initial_tilt_sigma: deg(2.0),
-            initial_yaw_sigma: deg(5.0),
             initial_bias_sigma: deg(0.2),
             accel_time_constant: 2.5,
             gyro_scale_error: 0.02,

@@ -306,6 +306,33 @@ fn magnetometer_moves_only_yaw_and_rejects_disturbed_samples() {
     assert!(yaw_err.abs() < 0.5, "{yaw_err}");
 }
 
+/// Nothing the filter starts from measures the heading, so its start variance is that of an
+/// unknown angle (π²/3) and the magnetometer's first sample sets it: a board heading 120° (on
+/// the magnetometer's north), started from the default yaw 0 after a still window, is within
+/// 0.5° of it after the first magnetometer update (with the former 5° start σ that update
+/// moved it by three quarters of the 120°).
+#[test]
+fn the_first_magnetometer_sample_sets_the_unknown_start_heading() {
+    let mut s = Settings::default();
+    s.mag.enabled = true;
+    s.init.window_s = 2.0;
+    let truth = Euler::new(deg(3.0), deg(-2.0), deg(120.0)).to_quaternion();
+    let run = simulate(truth, 4.0, 50.0, Sensors::perfect(), 10, still);
+    let (f0, dip, dec) = (s.mag.field_ut, s.mag.dip, s.mag.declination);
+    let field_ned = Vec3::new(dip.cos() * dec.cos(), dip.cos() * dec.sin(), dip.sin()) * f0;
+    let mut f = Ekf::new(s);
+    for (k, smp) in run.samples.iter().enumerate() {
+        let mut smp = *smp;
+        smp.mag = Some(run.truth[k].rotate_inverse(field_ned));
+        if f.update(&smp).contains(Flags::MAG_USED) {
+            let err = to_deg(yaw_error(f.attitude(), truth));
+            assert!(err.abs() < 0.5, "after the first magnetometer update: {err}°");
+            return;
+        }
+    }
+    panic!("no magnetometer update");
+}
+
 #[test]
 fn set_yaw_keeps_tilt() {
     let q = Euler::new(deg(7.0), deg(-12.0), deg(33.0)).to_quaternion();

@@ -93,13 +93,13 @@ fn version_status_and_list() {
     assert_eq!(run(&mut d, &mut f, "PINAC,STATUS").0, "PINAR,OK,STATUS,DEFAULTS,,POR,0001,00,R,,");
     assert_eq!(
         run(&mut d, &mut f, "PINAC,LIST,0").0,
-        "PINAR,OK,LIST,0,69,noise.gyro_var,f32x3,(deg/s)2,1e-6,100"
+        "PINAR,OK,LIST,0,68,noise.gyro_var,f32x3,(deg/s)2,1e-6,100"
     );
-    assert_eq!(run(&mut d, &mut f, "PINAC,LIST,60").0, "PINAR,OK,LIST,60,69,output.prdid,bool,,,");
+    assert_eq!(run(&mut d, &mut f, "PINAC,LIST,59").0, "PINAR,OK,LIST,59,68,output.prdid,bool,,,");
     for i in 0..SETTINGS.len() {
         assert!(run(&mut d, &mut f, &format!("PINAC,LIST,{i}")).0.starts_with("PINAR,OK,LIST,"));
     }
-    assert_eq!(refused(&mut d, &mut f, &cmd("PINAC,LIST,69")), "PINAR,ERR,LIST,range,0,68");
+    assert_eq!(refused(&mut d, &mut f, &cmd("PINAC,LIST,68")), "PINAR,ERR,LIST,range,0,67");
     // Verbs are case-insensitive.
     assert!(run(&mut d, &mut f, "PINAC,ver").0.starts_with("PINAR,OK,VER,"));
     // A reset cause that cannot be sent is shown as `?`.

@@ -610,10 +610,13 @@ const WHY_36_VAR: &str = "retired by issue #36: the accelerometer's variance is 
 /// Issue #36 (session 20): a floor derived from Earth's rate and the bias's random walk.
 const WHY_36_FLOOR: &str = "retired by issue #36: the floor of a still block's bias measurement is derived (Earth's rate and ekf.bias_random_walk over the block)";
 
+/// Issue #36 (session 20): the start's heading variance is that of an unknown angle.
+const WHY_36_YAW: &str = "retired by issue #36: the heading is unknown at the start (variance pi^2/3): a heading source's first measurement sets it";
+
 /// Settings that older firmware had and this one has retired. The ids are never reused; a
 /// saved record that holds one loads without it (`persist`), and the host tools skip one
 /// named in a log's header or a settings file, with a warning that says why (issue #39).
-pub const RETIRED: [Retired; 11] = [
+pub const RETIRED: [Retired; 12] = [
     Retired { id: 58, name: "ekf.vib_time_constant", why: WHY_26 },
     Retired { id: 59, name: "ekf.vib_rate", why: WHY_26 },
     Retired { id: 68, name: "ekf.motion_scale", why: WHY_26 },
@@ -625,6 +628,7 @@ pub const RETIRED: [Retired; 11] = [
     Retired { id: 25, name: "gate.long_reject", why: WHY_36_GATE },
     Retired { id: 61, name: "ekf.accel_var_scale", why: WHY_36_VAR },
     Retired { id: 46, name: "rest.bias_meas_floor", why: WHY_36_FLOOR },
+    Retired { id: 65, name: "ekf.initial_yaw_sigma", why: WHY_36_YAW },
 ];
 
 /// The retired setting called `name` (matched case-insensitively).

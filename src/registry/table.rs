@@ -435,16 +435,6 @@ settings_table! {
         |s| s.filter.ekf.initial_tilt_sigma
     ),
     num!(
-        65,
-        "ekf.initial_yaw_sigma",
-        "deg",
-        DEG,
-        0.01,
-        180.0,
-        "yaw standard deviation after initialisation",
-        |s| s.filter.ekf.initial_yaw_sigma
-    ),
-    num!(
         66,
         "ekf.initial_bias_sigma",
         "deg/s",
