@@ -136,6 +136,7 @@ pub struct Initializer {
     moving: bool,
     /// The sums at the last still checkpoint (segment end), and at the two before it.
     checkpoint: Sums,
+    /// Checkpoints passed.
     checkpoints: u32,
     previous: Sums,
     still_prefix: Sums,
@@ -146,7 +147,8 @@ pub struct Initializer {
 impl Initializer {
     /// A new window with the settings' initial yaw. A window is still when, per axis, its
     /// segment mean rates spread by no more than `rest.gyro_var_factor` times what the samples'
-    /// own variance gives them (plus `ekf.initial_bias_sigma²`), the accelerometer's standard deviation is within
+    /// own variance gives them (plus `ekf.initial_bias_sigma²`), the accelerometer's standard
+    /// deviation is within
     /// [`WINDOW_ACCEL_STD_FACTOR`] × `rest.accel_std_max_g`, the mean gyro within
     /// [`Z`] (3) `moving_bias_sigma` of `gyro_bias`, and the samples since the last checkpoint
     /// agree with those before it (within [`Z`] standard errors plus `ekf.initial_bias_sigma`:
@@ -489,8 +491,8 @@ mod tests {
     /// The window's segment means may spread by `rest.gyro_var_factor` times what the samples'
     /// own scatter gives them, as the rest detector's: a still window with white gyro noise
     /// (σ = 0.05 rad/s, segment means scattering by σ²/12.5) takes its whole 10 s under the
-    /// default limit (6), for 5 seeds; under a limit of 0.5 the scatter noise alone gives its
-    /// segment means exceeds it and the window ends within its first seconds.
+    /// default limit (6), for 5 seeds; under a limit of 0.5 the spread that the noise alone
+    /// gives the segment means exceeds it, and the window ends within its first seconds.
     #[test]
     fn the_window_spread_limit_is_the_rest_detectors() {
         let run = |factor: f32, seed: u64| {
