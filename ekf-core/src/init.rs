@@ -148,12 +148,11 @@ impl Initializer {
     /// A new window with the settings' initial yaw. A window is still when, per axis, its
     /// segment mean rates spread by no more than `rest.gyro_var_factor` times what the samples'
     /// own variance gives them (plus `ekf.initial_bias_sigma²`), the accelerometer's standard
-    /// deviation is within
-    /// [`WINDOW_ACCEL_STD_FACTOR`] × `rest.accel_std_max_g`, the mean gyro within
-    /// [`Z`] (3) `moving_bias_sigma` of `gyro_bias`, and the samples since the last checkpoint
-    /// agree with those before it (within [`Z`] standard errors plus `ekf.initial_bias_sigma`:
-    /// the rest detector's significance). No test
-    /// depends on the configured gyro noise (beyond a floor).
+    /// deviation is within [`WINDOW_ACCEL_STD_FACTOR`] × `rest.accel_std_max_g`, the mean gyro
+    /// within [`Z`] (3) `moving_bias_sigma` of `gyro_bias`, and the samples since the last
+    /// checkpoint agree with those before it (within [`Z`] standard errors plus
+    /// `ekf.initial_bias_sigma`: the rest detector's significance). No test depends on the
+    /// configured gyro noise (beyond a floor).
     pub fn new(s: &Settings) -> Self {
         Initializer {
             settings: s.init,
