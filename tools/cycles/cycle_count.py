@@ -11,8 +11,9 @@ inclusive). Prints cycles at 0 and 2 wait states, the stack high-water of one st
 of the code reachable from the filter's step, and where the EKF's cycles go. `--json` also
 holds every step's cycles at 2 wait states (`cycles_2ws_steps`: on the gentle lap the three
 rest-block ends are the steps over 45,000).
-`--check` fails (exit 1) when the EKF's mean or maximum cycles at 2 wait states, on the gentle
-lap or on the shaking one (`ekf-moving`), exceed the committed baseline by more than 5 %. `--host-compare` checks that the emulated estimates are
+`--check` fails (exit 1) when the EKF's mean, median or maximum cycles at 2 wait states, on the
+gentle lap or on the shaking one (`ekf-moving`), exceed the committed baseline by more than 5 %
+(issue #36's goals are a median and a maximum). `--host-compare` checks that the emulated estimates are
 bit-identical to the host build's: the final Euler output (`cargo run -p cycle-bench -- euler ID
 STEPS`) and a digest of every step's full state — flags, quaternion, bias, Euler output and
 covariance as bit patterns (`ahrs_bench_digest`; `cargo run -p cycle-bench -- digest ID STEPS`).
@@ -271,8 +272,11 @@ def main(argv=None) -> int:
             "ekf_cycles_2ws_mean": round(e["cycles_2ws_mean"]),
             "ekf_cycles_0ws_mean": round(e["cycles_0ws_mean"]),
             "ekf_instructions_mean": round(e["instructions_mean"]),
+            "ekf_cycles_2ws_median": round(e["cycles_2ws_median"]),
             "ekf_cycles_2ws_max": e["cycles_2ws_max"],
             "ekf_moving_cycles_2ws_mean": round(res["filters"]["ekf-moving"]["cycles_2ws_mean"]),
+            "ekf_moving_cycles_2ws_median": round(
+                res["filters"]["ekf-moving"]["cycles_2ws_median"]),
             "ekf_moving_cycles_2ws_max": res["filters"]["ekf-moving"]["cycles_2ws_max"],
             "others_cycles_2ws_mean": {n: round(r["cycles_2ws_mean"])
                                        for n, r in res["filters"].items() if n not in GUARDED},
@@ -296,6 +300,7 @@ def main(argv=None) -> int:
             if r is None:
                 continue
             checks += [(f"{prefix}_cycles_2ws_mean", r["cycles_2ws_mean"]),
+                       (f"{prefix}_cycles_2ws_median", r["cycles_2ws_median"]),
                        (f"{prefix}_cycles_2ws_max", r["cycles_2ws_max"])]
         for key, now in checks:
             if key not in base:
