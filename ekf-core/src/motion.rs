@@ -88,6 +88,8 @@ pub struct MotionLevel {
     cold: u32,
     /// The low-passes' coefficients `dt/τ`.
     alpha: [f32; LPS],
+    /// `1 − alpha[0]`: the rotation angle's low-pass keeps this much per sample.
+    keep0: f32,
     /// Each band's white-noise and gyro-walk power, g² per axis.
     noise: [f32; BANDS],
     /// Each band's attack coefficient, and the release coefficient.
@@ -125,6 +127,7 @@ impl MotionLevel {
             started: false,
             cold: u32::MAX,
             alpha: [0.0; LPS],
+            keep0: 0.0,
             noise: [0.0; BANDS],
             k: [0.0; BANDS + 1],
             scale: [0.0; BANDS],
@@ -162,6 +165,7 @@ impl MotionLevel {
             self.alpha[i] = al[i];
             ti /= RATIO;
         }
+        self.keep0 = 1.0 - self.alpha[0];
         // The mean delay of each, s (a first-order low-pass's ramp lag, discrete).
         let lag: [f32; LPS + 1] = core::array::from_fn(|i| dt * (1.0 - al[i]) / al[i]);
         // White noise of variance σ² through two first-order low-passes: covariance
@@ -264,7 +268,7 @@ impl MotionLevel {
             });
         });
         unroll!(k in [0, 1] {
-            self.rot[k] = (1.0 - self.alpha[0]) * (self.rot[k] - dth[k]);
+            self.rot[k] = self.keep0 * (self.rot[k] - dth[k]);
         });
         let ar = self.k[BANDS];
         unroll!(b in [0, 1, 2] {
@@ -272,7 +276,9 @@ impl MotionLevel {
             let mut p = 0.0;
             unroll!(k in [0, 1] {
                 let top = if b + 2 < LPS { self.lp[(b + 2) % LPS][k] } else { u[k] };
-                let d = c[0] * self.lp[b][k] + c[1] * self.lp[b + 1][k] + c[2] * top;
+                // `c[2]` is 1 (or the band is off: `c` all 0, and then `scale` and `noise`
+                // are 0 too, so `p` is not read): `top` itself, no multiplication.
+                let d = c[0] * self.lp[b][k] + c[1] * self.lp[b + 1][k] + top;
                 p += d * d;
             });
             // Per axis, at the band's centre.
