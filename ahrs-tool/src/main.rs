@@ -115,6 +115,13 @@ enum Cmd {
         /// Output settings file (default: standard output).
         #[arg(long)]
         out: Option<PathBuf>,
+        /// Analyse the rows from this time on, s (the trace's time column): the still part of
+        /// a longer log.
+        #[arg(long, value_parser = time_arg)]
+        from: Option<f64>,
+        /// ... up to this time, s.
+        #[arg(long, value_parser = time_arg)]
+        to: Option<f64>,
     },
     /// Interactive six-position accelerometer calibration (answers read from stdin).
     Calibrate {
@@ -258,7 +265,7 @@ fn main() -> ExitCode {
             log(&port, &out, seconds, restart, device_estimates.as_deref(), force)
         }
         Cmd::Calibrate { port, seconds } => calibrate(&port, seconds),
-        Cmd::Noise { trace, out } => noise::run(&trace, out.as_deref()),
+        Cmd::Noise { trace, out, from, to } => noise::run(&trace, out.as_deref(), from, to),
         Cmd::Bridge { port, udp, tcp, signalk, seconds } => {
             catch_signals();
             let stop = || INTERRUPTED.load(Ordering::SeqCst);
@@ -320,6 +327,11 @@ fn number_in(s: &str, what: &str, lo: f64, open_lo: bool, hi: f64) -> Result<f64
 /// A duration, s: finite, above 0, at most [`MAX_SECONDS`].
 fn seconds_arg(s: &str) -> Result<f64, String> {
     number_in(s, "seconds", 0.0, true, MAX_SECONDS)
+}
+
+/// A time in a trace, s: finite, from 0, at most [`MAX_SECONDS`].
+fn time_arg(s: &str) -> Result<f64, String> {
+    number_in(s, "time", 0.0, false, MAX_SECONDS)
 }
 
 /// `ACAL`'s averaging time, s: the device accepts 0.5–60.

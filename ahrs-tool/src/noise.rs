@@ -88,15 +88,27 @@ pub fn settings_text(r: &RecordingNoise, source: &str) -> String {
     t
 }
 
-/// `ahrs-tool noise TRACE [--out FILE]`: the settings file to `out` (standard output without
-/// it), the figures to standard error.
-pub fn run(trace: &Path, out: Option<&Path>) -> Result<(), String> {
+/// `ahrs-tool noise TRACE [--out FILE] [--from S] [--to S]`: the settings file to `out`
+/// (standard output without it), the figures to standard error; only the rows with a time in
+/// `[from, to]` when given.
+pub fn run(
+    trace: &Path,
+    out: Option<&Path>,
+    from: Option<f64>,
+    to: Option<f64>,
+) -> Result<(), String> {
     if let Some(out) = out {
         refuse_overwriting_inputs(out, &[trace]).map_err(|e| e.to_string())?;
     }
     let (_, rows) = read_trace_file(trace).map_err(|e| format!("{}: {e}", trace.display()))?;
+    let (lo, hi) = (from.unwrap_or(f64::NEG_INFINITY), to.unwrap_or(f64::INFINITY));
+    let rows: Vec<_> = rows.into_iter().filter(|r| r.t >= lo && r.t <= hi).collect();
     let r = analyse(&rows).map_err(|e| format!("{}: {e}", trace.display()))?;
-    let text = settings_text(&r, &trace.display().to_string());
+    let mut source = trace.display().to_string();
+    if from.is_some() || to.is_some() {
+        source.push_str(&format!(" (t = {} to {} s)", rows[0].t, rows[rows.len() - 1].t));
+    }
+    let text = settings_text(&r, &source);
     match out {
         Some(out) => {
             write_atomically(out, |w| w.write_all(text.as_bytes()))

@@ -55,6 +55,38 @@ fn a_still_recording_gives_its_noise_settings() {
     assert!(String::from_utf8_lossy(&run.stderr).contains("refusing to write over it"));
     assert_eq!(std::fs::read(&trace).unwrap(), before);
 
+    // A log that is still for its first 100 s and then turns: refused whole; its still part
+    // (`--from`, `--to`) analysed.
+    let turning = dir.path().join("turning.csv");
+    let text = std::fs::read_to_string(&trace).unwrap();
+    let mut out_text = String::new();
+    for line in text.lines() {
+        let t: Option<f64> = line.split(',').next().and_then(|c| c.trim().parse().ok());
+        match t {
+            Some(t) if t > 100.0 => {
+                // gyro z (the fourth column) plus 0.1 rad/s: a turn.
+                let mut cells: Vec<String> = line.split(',').map(String::from).collect();
+                let z: f64 = cells[3].trim().parse().unwrap();
+                cells[3] = format!("{}", z + 0.1);
+                out_text.push_str(&cells.join(","));
+            }
+            _ => out_text.push_str(line),
+        }
+        out_text.push('\n');
+    }
+    std::fs::write(&turning, out_text).unwrap();
+    let run = Command::new(BIN).arg("noise").arg(&turning).output().unwrap();
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert_eq!(run.status.code(), Some(2), "{err}");
+    assert!(err.contains("not still") && err.contains("axis z"), "{err}");
+    let run = Command::new(BIN)
+        .args(["noise", turning.to_str().unwrap(), "--from", "5", "--to", "95"])
+        .output()
+        .unwrap();
+    let out = String::from_utf8_lossy(&run.stdout);
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    assert!(out.contains("(t = 5") && out.contains("noise.gyro_var="), "{out}");
+
     // A recording that moves: refused with the reason, no file.
     let moving = dir.path().join("moving.csv");
     write_trace(&moving, Scenario::PitchSine, 120.0);

@@ -264,7 +264,7 @@ pub fn analyse(rows: &[TraceRow]) -> Result<RecordingNoise, String> {
                 let m = chunk.iter().sum::<f64>() / chunk.len() as f64;
                 if (m - mean).abs() > limit {
                     return Err(format!(
-                        "the recording is not still: at t = {:.0} s the {what}'s 1 s mean on axis {} is {:.3} {} from the recording's mean (at most {} allowed); record with the board at rest",
+                        "the recording is not still: at t = {:.0} s the {what}'s 1 s mean on axis {} is {:.3} {} from the recording's mean (at most {:.2} allowed); record with the board at rest",
                         rows[c * per_s].t,
                         ["x", "y", "z"][a],
                         (m - mean).abs() * unit,
