@@ -50,7 +50,11 @@ pub fn settings_text(r: &RecordingNoise, source: &str) -> String {
     let gyro: Vec<String> =
         r.gyro.iter().map(|f| format!("{:.4e}", (f.white * DEG).powi(2) * rate)).collect();
     let accel = r.accel.iter().map(|f| f.white * f.white * rate).sum::<f64>() / 3.0;
+    // The bias at rest, as the trace has the rates (after `gyro.offset`): what a start in
+    // motion assumes.
+    let bias: Vec<String> = r.gyro_mean.iter().map(|b| format!("{:.4}", b * DEG)).collect();
     let mut lines = vec![
+        format!("init.gyro_bias={}", bias.join(",")),
         format!("noise.gyro_var={}", gyro.join(",")),
         format!("noise.gyro_ref_rate={rate}"),
         format!("noise.accel_var={accel:.4e}"),
@@ -146,6 +150,7 @@ mod tests {
         let r = RecordingNoise {
             rate_hz: 50.0,
             duration_s: 7200.0,
+            gyro_mean: [1.619 / DEG, 3.44 / DEG, -0.0042 / DEG],
             gyro: [fit(n, 0.002 / DEG), fit(n, 0.001 / DEG), fit(n / 9.0, 0.0)],
             accel: [NoiseFit {
                 white: a,
@@ -160,6 +165,7 @@ mod tests {
         assert!(t.contains("\nnoise.gyro_ref_rate=50\n"), "{t}");
         assert!(t.contains("\nnoise.accel_var=2.3760e-6\n"), "{t}");
         assert!(t.contains("\nekf.bias_random_walk=4.0000e-6\n"), "{t}");
+        assert!(t.contains("\ninit.gyro_bias=1.6190,3.4400,-0.0042\n"), "{t}");
         for l in t.lines().filter(|l| !l.starts_with('#')) {
             parse_assignment(l).unwrap();
         }

@@ -47,7 +47,12 @@ fn a_still_recording_gives_its_noise_settings() {
     assert!((value("noise.accel_var")[0] / 2.376e-6 - 1.0).abs() < 0.1, "{text}");
     // Ten minutes show no random walk: not set, and the file says why.
     assert!(text.contains("# ekf.bias_random_walk not measured"), "{text}");
-    assert_eq!(parsed.lines.len(), 4, "{text}");
+    // The simulator's bias, the board's (1.619, 3.440, −0.0042) °/s, within the mean's noise
+    // (0.58 °/s over 30,000 samples: 0.003 °/s).
+    for (got, want) in value("init.gyro_bias").iter().zip([1.619, 3.44, -0.0042]) {
+        assert!((got - want).abs() < 0.015, "{got} against {want}:\n{text}");
+    }
+    assert_eq!(parsed.lines.len(), 5, "{text}");
 
     // Asked to write over its input: refused, the input as it was.
     let run = Command::new(BIN).arg("noise").arg(&trace).arg("--out").arg(&trace).output().unwrap();

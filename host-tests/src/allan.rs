@@ -201,6 +201,8 @@ pub struct RecordingNoise {
     pub rate_hz: f64,
     /// Length, s.
     pub duration_s: f64,
+    /// The gyro's mean rate per axis, rad/s: its bias at rest (with Earth's rate's projection).
+    pub gyro_mean: [f64; 3],
     /// Gyro x, y, z: rad/s units (`white` in rad/s/√Hz, `walk` in rad/s/√s).
     pub gyro: [NoiseFit; 3],
     /// Accelerometer x, y, z: g units.
@@ -278,9 +280,11 @@ pub fn analyse(rows: &[TraceRow]) -> Result<RecordingNoise, String> {
     let fits = |axes: &[Vec<f64>; 3]| -> [NoiseFit; 3] {
         core::array::from_fn(|a| fit(&allan_curve(&axes[a], dt)))
     };
+    let gyro_mean = core::array::from_fn(|a| gyro[a].iter().sum::<f64>() / gyro[a].len() as f64);
     Ok(RecordingNoise {
         rate_hz: 1.0 / dt,
         duration_s: duration,
+        gyro_mean,
         gyro: fits(&gyro),
         accel: fits(&accel),
     })
