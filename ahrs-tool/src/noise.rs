@@ -1,7 +1,8 @@
-//! `ahrs-tool noise TRACE [--out FILE]`: the noise settings measured from a still recording
-//! (`host_tests::allan`): `noise.gyro_var`, `noise.accel_var` (per sample at the recording's
-//! rate) and `ekf.bias_random_walk`, as a settings file that `ahrs-tool settings put` sends to
-//! the device and `host-tests replay --settings` reads.
+//! `ahrs-tool noise TRACE [--out FILE] [--from S] [--to S]`: the noise settings measured from
+//! a still recording (`host_tests::allan`): `noise.gyro_var`, `noise.accel_var` (per sample at
+//! the recording's rate) and `ekf.bias_random_walk`, with the mean rate as `init.gyro_bias`, as
+//! a settings file that `ahrs-tool settings put` sends to the device and `host-tests replay
+//! --settings` reads.
 
 use std::io::Write;
 use std::path::Path;

@@ -216,7 +216,7 @@ pub const STILL_ACCEL_G: f64 = 0.05;
 pub const STILL_RATE: f64 = 0.017_453_3;
 
 /// Analyse the rows of a still recording (a trace: gyro rad/s, accelerometer m/s²). Errors
-/// name the row (counted from 1) and say what is wrong: a value that is not a finite number, a
+/// name the row by its time and say what is wrong: a value that is not a finite number, a
 /// time that does not increase or a gap (the Allan variance needs evenly spaced samples), a
 /// recording shorter than [`MIN_DURATION_S`], or one that is not still.
 pub fn analyse(rows: &[TraceRow]) -> Result<RecordingNoise, String> {
@@ -227,10 +227,17 @@ pub fn analyse(rows: &[TraceRow]) -> Result<RecordingNoise, String> {
         ));
     }
     for (i, r) in rows.iter().enumerate() {
-        if !(r.t.is_finite() && r.gyro.iter().chain(&r.accel).all(|v| v.is_finite())) {
+        if !r.t.is_finite() {
             return Err(format!(
-                "row {}: time, gyro and accelerometer must be finite numbers",
-                i + 1
+                "data row {} (after t = {} s): the time is not a number",
+                i + 1,
+                if i > 0 { rows[i - 1].t } else { f64::NAN }
+            ));
+        }
+        if !r.gyro.iter().chain(&r.accel).all(|v| v.is_finite()) {
+            return Err(format!(
+                "t = {} s: the gyro and the accelerometer must be finite numbers",
+                r.t
             ));
         }
     }
@@ -245,8 +252,7 @@ pub fn analyse(rows: &[TraceRow]) -> Result<RecordingNoise, String> {
         let step = w[1].t - w[0].t;
         if !(step > 0.5 * dt && step < 1.5 * dt) {
             return Err(format!(
-                "row {} (t = {} s): {step} s after the row before, the samples being {dt:.6} s apart on average; the Allan variance needs an unbroken, evenly sampled recording",
-                i + 2,
+                "t = {} s: {step} s after the row before, the samples being {dt:.6} s apart on average; the Allan variance needs an unbroken, evenly sampled recording",
                 w[1].t
             ));
         }
@@ -362,7 +368,7 @@ mod tests {
         }
     }
 
-    /// Bad recordings: each error names the row or says what is wrong.
+    /// Bad recordings: each error names the row by its time, or says what is wrong.
     #[test]
     fn bad_recordings_are_refused_with_the_reason() {
         let rows = still(100.0, 50.0, None, 1);
@@ -371,10 +377,10 @@ mod tests {
         let mut gap = rows.clone();
         gap.remove(2000);
         let e = analyse(&gap).unwrap_err();
-        assert!(e.starts_with("row 2001 (t = 40.02 s)"), "{e}");
+        assert!(e.starts_with("t = 40.02 s: 0.04"), "{e}");
         let mut nan = rows.clone();
         nan[17].gyro[1] = f32::NAN;
-        assert!(analyse(&nan).unwrap_err().starts_with("row 18:"));
+        assert!(analyse(&nan).unwrap_err().starts_with("t = 0.34 s:"));
         let mut tilted = rows.clone();
         for r in &mut tilted[3000..] {
             r.accel[0] += 0.1 * 9.80665_f32;
