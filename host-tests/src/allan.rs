@@ -248,7 +248,7 @@ pub fn analyse(rows: &[TraceRow]) -> Result<RecordingNoise, String> {
             "the recording is {duration:.1} s long: the Allan variance needs at least {MIN_DURATION_S} s still (an hour or more to resolve the bias's random walk)"
         ));
     }
-    for (i, w) in rows.windows(2).enumerate() {
+    for w in rows.windows(2) {
         let step = w[1].t - w[0].t;
         if !(step > 0.5 * dt && step < 1.5 * dt) {
             return Err(format!(
