@@ -228,11 +228,10 @@ pub fn analyse(rows: &[TraceRow]) -> Result<RecordingNoise, String> {
     }
     for (i, r) in rows.iter().enumerate() {
         if !r.t.is_finite() {
-            return Err(format!(
-                "data row {} (after t = {} s): the time is not a number",
-                i + 1,
-                if i > 0 { rows[i - 1].t } else { f64::NAN }
-            ));
+            return Err(match i {
+                0 => "the first row's time is not a number".to_string(),
+                _ => format!("the row after t = {} s: its time is not a number", rows[i - 1].t),
+            });
         }
         if !r.gyro.iter().chain(&r.accel).all(|v| v.is_finite()) {
             return Err(format!(
@@ -381,6 +380,9 @@ mod tests {
         let mut nan = rows.clone();
         nan[17].gyro[1] = f32::NAN;
         assert!(analyse(&nan).unwrap_err().starts_with("t = 0.34 s:"));
+        nan[17].gyro[1] = 0.0;
+        nan[30].t = f64::NAN;
+        assert!(analyse(&nan).unwrap_err().starts_with("the row after t = 0.58 s: its time"));
         let mut tilted = rows.clone();
         for r in &mut tilted[3000..] {
             r.accel[0] += 0.1 * 9.80665_f32;
