@@ -275,6 +275,12 @@ fn constant_yaw_drift_compensation_subtracts_the_configured_rate() {
     assert!((to_deg(f.euler().yaw) + 0.45).abs() < 1e-3, "{}", to_deg(f.euler().yaw));
 }
 
+/// The Earth's field in NED, µT, for the configured strength, dip and declination.
+fn field_ned(s: &Settings) -> Vec3 {
+    let (f0, dip, dec) = (s.mag.field_ut, s.mag.dip, s.mag.declination);
+    Vec3::new(dip.cos() * dec.cos(), dip.cos() * dec.sin(), dip.sin()) * f0
+}
+
 #[test]
 fn magnetometer_moves_only_yaw_and_rejects_disturbed_samples() {
     let mut s = Settings::default();
@@ -282,9 +288,7 @@ fn magnetometer_moves_only_yaw_and_rejects_disturbed_samples() {
     s.rest.enabled = false;
     let truth = Euler::new(deg(5.0), deg(-4.0), deg(60.0)).to_quaternion();
     let run = simulate(truth, 60.0, 50.0, Sensors::perfect(), 10, still);
-    // Earth field in NED for the configured declination and dip.
-    let (f0, dip, dec) = (s.mag.field_ut, s.mag.dip, s.mag.declination);
-    let field_ned = Vec3::new(dip.cos() * dec.cos(), dip.cos() * dec.sin(), dip.sin()) * f0;
+    let field_ned = field_ned(&s);
     // Magnetic yaw: truth yaw is measured from true north; the filter starts 20° off.
     let start = Euler::new(deg(5.0), deg(-4.0), deg(40.0)).to_quaternion();
     let mut f = started(s, start, Vec3::ZERO);
@@ -318,8 +322,7 @@ fn the_first_magnetometer_sample_sets_the_unknown_start_heading() {
     s.init.window_s = 2.0;
     let truth = Euler::new(deg(3.0), deg(-2.0), deg(120.0)).to_quaternion();
     let run = simulate(truth, 4.0, 50.0, Sensors::perfect(), 10, still);
-    let (f0, dip, dec) = (s.mag.field_ut, s.mag.dip, s.mag.declination);
-    let field_ned = Vec3::new(dip.cos() * dec.cos(), dip.cos() * dec.sin(), dip.sin()) * f0;
+    let field_ned = field_ned(&s);
     let mut f = Ekf::new(s);
     for (k, smp) in run.samples.iter().enumerate() {
         let mut smp = *smp;
